@@ -1,0 +1,70 @@
+#pragma once
+// The one interface every hierarchy answers (DESIGN §2), so that renderers, tests and
+// benchmarks swap structures by name: `make_accel("kd", triangles, config)`.
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "splitray/core/ray.hpp"
+#include "splitray/core/triangle.hpp"
+
+namespace splitray {
+
+// Build settings shared by every structure; each reads the fields that apply to it.
+struct BuildConfig {
+  std::string builder;           // empty = the structure's default builder
+  float traversal_cost = 15;     // K_T of the SAH
+  float intersection_cost = 20;  // K_I of the SAH
+  float empty_bonus = 0.2f;      // SAH discount for cutting off empty space (Wald & Havran: 0.2)
+  int max_depth = 0;             // 0 = automatic (8 + 1.3 log2 N, as in pbrt / Wald & Havran)
+  int max_leaf_prims = 1;        // a node with this many or fewer primitives is never split
+  int bins = 64;                 // binned builders
+  int threads = 0;               // 0 = all cores; the built structure never depends on it
+};
+
+struct AccelStats {
+  std::string accel;     // "kd", "brute", ...
+  std::string builder;   // the builder actually used
+  std::size_t prims = 0;
+  double build_ms = 0;
+  std::size_t nodes = 0;  // all nodes, leaves included
+  std::size_t leaves = 0;
+  std::size_t empty_leaves = 0;
+  int max_depth = 0;
+  double mean_leaf_depth = 0;
+  double mean_leaf_prims = 0;  // primitive references per non-empty leaf
+  std::size_t prim_refs = 0;   // primitive references in all leaves
+  std::size_t bytes = 0;
+  std::optional<double> sah_cost;  // from sah_cost.hpp, comparable across structures
+  std::uint64_t cost_evals = 0;    // SAH cost evaluations made while building
+};
+
+class Accel {
+ public:
+  virtual ~Accel() = default;
+
+  // Closest hit with ray.tmin <= t <= ray.tmax; ties go to the smaller primitive id.
+  virtual Hit intersect(const Ray& ray) const = 0;
+  // Any hit with ray.tmin <= t <= ray.tmax.
+  virtual bool occluded(const Ray& ray) const = 0;
+
+  // Batched versions over all cores; results are identical to the single-ray calls.
+  virtual void intersect(std::span<const Ray> rays, std::span<Hit> hits) const;
+  virtual void occluded(std::span<const Ray> rays, std::span<std::uint8_t> occluded) const;
+
+  virtual const AccelStats& stats() const = 0;
+};
+
+// Creates a structure by name ("kd", "brute", "embree", ...). Throws Error on an unknown
+// name or builder. The structure keeps its own copy of what it needs of `triangles`.
+std::unique_ptr<Accel> make_accel(const std::string& name, std::span<const Triangle> triangles,
+                                  const BuildConfig& config = {});
+
+// Names make_accel accepts, and the builders of each (first = default).
+std::vector<std::string> accel_names();
+std::vector<std::string> builder_names(const std::string& accel);
+
+}  // namespace splitray

@@ -1,0 +1,33 @@
+#pragma once
+// What every kd builder produces and shares. A builder returns a temporary pointer tree of
+// KdBuildNode; flatten_kd() lays it out as compact 8-byte nodes, depth first, so that the
+// final tree depends only on the build decisions, never on the thread count or order.
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "splitray/accel/accel.hpp"
+
+namespace splitray {
+
+struct KdBuildNode {
+  int axis = -1;  // -1 = leaf
+  float split = 0;
+  std::unique_ptr<KdBuildNode> below, above;  // interior: children (below = coordinate < split)
+  std::vector<std::uint32_t> prims;           // leaf: triangle ids
+};
+
+struct KdBuildResult {
+  std::unique_ptr<KdBuildNode> root;
+  std::uint64_t cost_evals = 0;  // SAH cost evaluations
+};
+
+// Each builder: triangles, their common bounding box (the root cell), settings.
+using KdBuilder = KdBuildResult (*)(std::span<const Triangle>, const Aabb&, const BuildConfig&);
+
+KdBuildResult build_kd_sah(std::span<const Triangle>, const Aabb&, const BuildConfig&);     // event sweep
+KdBuildResult build_kd_golden(std::span<const Triangle>, const Aabb&, const BuildConfig&);  // paper 000
+KdBuildResult build_kd_binned(std::span<const Triangle>, const Aabb&, const BuildConfig&);  // bins
+
+}  // namespace splitray

@@ -1,0 +1,20 @@
+#pragma once
+// Pinhole look-at camera.
+#include "splitray/core/aabb.hpp"
+#include "splitray/core/ray.hpp"
+
+namespace splitray {
+
+struct Camera {
+  Vec3 eye{0, 0, 5};
+  Vec3 target{0, 0, 0};
+  Vec3 up{0, 1, 0};
+  float vfov_degrees = 60;
+
+  // Ray through image position (x, y) in pixels, (0, 0) the top-left corner of the image.
+  Ray generate(float x, float y, int width, int height) const;
+  // A camera outside `box` looking at its centre from the front-right-above, seeing all of it.
+  static Camera frame(const Aabb& box, float vfov_degrees = 45);
+};
+
+}  // namespace splitray

@@ -1,0 +1,43 @@
+#include "splitray/core/mesh.hpp"
+
+#include "splitray/core/errors.hpp"
+
+namespace splitray {
+
+Aabb Mesh::bounds() const {
+  Aabb b;
+  for (const Vec3& p : positions) b.extend(p);
+  return b;
+}
+
+std::vector<Triangle> Mesh::triangles() const {
+  std::vector<Triangle> out;
+  out.reserve(faces.size());
+  for (std::size_t f = 0; f < faces.size(); ++f) out.push_back(triangle(f));
+  return out;
+}
+
+void Mesh::validate(const std::string& where) const {
+  if (faces.empty()) throw Error(where, "the mesh has no triangles");
+  for (std::size_t i = 0; i < positions.size(); ++i)
+    if (!is_finite(positions[i]))
+      throw Error(where, "vertex " + std::to_string(i) + " has a NaN or infinite coordinate");
+  for (std::size_t f = 0; f < faces.size(); ++f)
+    for (std::uint32_t index : faces[f])
+      if (index >= positions.size())
+        throw Error(where, "face " + std::to_string(f) + " refers to vertex " + std::to_string(index) +
+                               " but there are only " + std::to_string(positions.size()));
+  if (!normals.empty() && normals.size() != positions.size())
+    throw Error(where, "normal count differs from vertex count");
+}
+
+void Mesh::compute_vertex_normals() {
+  normals.assign(positions.size(), Vec3{});
+  for (std::size_t f = 0; f < faces.size(); ++f) {
+    const Vec3 n = triangle(f).geometric_normal();  // length = 2 * area: area weighting
+    for (std::uint32_t index : faces[f]) normals[index] += n;
+  }
+  for (Vec3& n : normals) n = normalize(n);
+}
+
+}  // namespace splitray

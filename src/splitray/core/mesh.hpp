@@ -1,0 +1,31 @@
+#pragma once
+// Indexed triangle meshes and the triangle soups hierarchies are built on.
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "splitray/core/triangle.hpp"
+
+namespace splitray {
+
+struct Mesh {
+  std::string name;
+  std::vector<Vec3> positions;
+  std::vector<Vec3> normals;  // per vertex, empty or positions.size(); shading only
+  std::vector<std::array<std::uint32_t, 3>> faces;
+
+  std::size_t triangle_count() const { return faces.size(); }
+  Triangle triangle(std::size_t f) const {
+    const auto& i = faces[f];
+    return {positions[i[0]], positions[i[1]], positions[i[2]]};
+  }
+  Aabb bounds() const;
+  std::vector<Triangle> triangles() const;
+  // Throws Error(where, ...) on out-of-range indices, non-finite coordinates or no faces.
+  void validate(const std::string& where) const;
+  // Area-weighted per-vertex normals (used when a file has none).
+  void compute_vertex_normals();
+};
+
+}  // namespace splitray

@@ -1,0 +1,65 @@
+#include "splitray/core/scene.hpp"
+
+#include "splitray/core/errors.hpp"
+
+namespace splitray {
+
+Aabb Scene::bounds() const {
+  Aabb b;
+  for (const Instance& inst : instances)
+    for (const Vec3& p : meshes[inst.mesh].positions) b.extend(inst.transform.point(p));
+  return b;
+}
+
+void Scene::validate(const std::string& where) const {
+  if (instances.empty()) throw Error(where, "the scene has no mesh instances");
+  if (materials.empty()) throw Error(where, "the scene has no materials");
+  for (std::size_t i = 0; i < instances.size(); ++i) {
+    if (instances[i].mesh >= meshes.size())
+      throw Error(where, "instance " + std::to_string(i) + " names mesh " +
+                             std::to_string(instances[i].mesh) + " of " + std::to_string(meshes.size()));
+    if (instances[i].material >= materials.size())
+      throw Error(where, "instance " + std::to_string(i) + " names material " +
+                             std::to_string(instances[i].material) + " of " +
+                             std::to_string(materials.size()));
+  }
+  for (const Mesh& mesh : meshes) mesh.validate(where + " (mesh '" + mesh.name + "')");
+}
+
+FlatScene flatten(const Scene& scene) {
+  FlatScene flat;
+  for (const Instance& inst : scene.instances) {
+    const Mesh& mesh = scene.meshes[inst.mesh];
+    for (std::size_t f = 0; f < mesh.faces.size(); ++f) {
+      const auto& idx = mesh.faces[f];
+      Triangle tri{inst.transform.point(mesh.positions[idx[0]]),
+                   inst.transform.point(mesh.positions[idx[1]]),
+                   inst.transform.point(mesh.positions[idx[2]])};
+      std::array<Vec3, 3> normals;
+      const Vec3 geometric = normalize(tri.geometric_normal());
+      for (int k = 0; k < 3; ++k)
+        normals[k] = mesh.normals.empty() ? geometric : inst.transform.normal(mesh.normals[idx[k]]);
+      flat.triangles.push_back(tri);
+      flat.material.push_back(inst.material);
+      flat.vertex_normals.push_back(normals);
+    }
+  }
+  return flat;
+}
+
+Scene scene_from_mesh(Mesh mesh) {
+  Scene scene;
+  const Aabb box = mesh.bounds();
+  scene.meshes.push_back(std::move(mesh));
+  scene.instances.push_back(Instance{});
+  Camera cam = Camera::frame(box);
+  scene.camera = cam;
+  Light light;
+  light.kind = Light::Kind::point;
+  light.position = cam.eye + (cam.eye - cam.target) * 0.3f + Vec3{0, length(box.extent()), 0};
+  light.intensity = dot(light.position - cam.target, light.position - cam.target);
+  scene.lights.push_back(light);
+  return scene;
+}
+
+}  // namespace splitray

@@ -1,0 +1,85 @@
+#pragma once
+// Triangles and the watertight ray-triangle test of Woop, Benthin and Wald (JCGT 2013):
+// rays through a shared edge or vertex hit at least one of the triangles that share it.
+#include <cmath>
+#include <utility>
+
+#include "splitray/core/aabb.hpp"
+#include "splitray/core/ray.hpp"
+
+namespace splitray {
+
+struct Triangle {
+  Vec3 v0, v1, v2;
+
+  Aabb bounds() const {
+    Aabb b;
+    b.extend(v0);
+    b.extend(v1);
+    b.extend(v2);
+    return b;
+  }
+  Vec3 geometric_normal() const { return cross(v1 - v0, v2 - v0); }  // not normalised
+  float area() const { return 0.5f * length(geometric_normal()); }
+  Vec3 vertex(int i) const { return i == 0 ? v0 : (i == 1 ? v1 : v2); }
+};
+
+// Per-ray constants of the watertight test: the ray is sheared so that it runs along +z.
+struct WatertightRay {
+  Vec3 org;
+  int kx, ky, kz;
+  float sx, sy, sz;
+
+  explicit WatertightRay(const Ray& ray) : org(ray.org) {
+    kz = max_axis(abs(ray.dir));
+    kx = kz == 2 ? 0 : kz + 1;
+    ky = kx == 2 ? 0 : kx + 1;
+    if (ray.dir[kz] < 0) std::swap(kx, ky);  // keep the winding of the triangles
+    sx = ray.dir[kx] / ray.dir[kz];
+    sy = ray.dir[ky] / ray.dir[kz];
+    sz = 1.0f / ray.dir[kz];
+  }
+};
+
+// Tests the ray against the triangle for tmin <= t <= tmax. On a hit stores t and the
+// barycentrics (u of v1, v of v2) and returns true. Both faces are hit.
+inline bool intersect_triangle(const WatertightRay& r, const Triangle& tri, float tmin, float tmax,
+                               float& t_out, float& u_out, float& v_out) {
+  const Vec3 a = tri.v0 - r.org, b = tri.v1 - r.org, c = tri.v2 - r.org;
+  const float ax = a[r.kx] - r.sx * a[r.kz], ay = a[r.ky] - r.sy * a[r.kz];
+  const float bx = b[r.kx] - r.sx * b[r.kz], by = b[r.ky] - r.sy * b[r.kz];
+  const float cx = c[r.kx] - r.sx * c[r.kz], cy = c[r.ky] - r.sy * c[r.kz];
+  float u = cx * by - cy * bx;
+  float v = ax * cy - ay * cx;
+  float w = bx * ay - by * ax;
+  if (u == 0.0f || v == 0.0f || w == 0.0f) {  // on an edge in float: decide in double
+    u = static_cast<float>(static_cast<double>(cx) * by - static_cast<double>(cy) * bx);
+    v = static_cast<float>(static_cast<double>(ax) * cy - static_cast<double>(ay) * cx);
+    w = static_cast<float>(static_cast<double>(bx) * ay - static_cast<double>(by) * ax);
+  }
+  if ((u < 0 || v < 0 || w < 0) && (u > 0 || v > 0 || w > 0)) return false;
+  const float det = u + v + w;
+  if (det == 0.0f) return false;
+  const float az = r.sz * a[r.kz], bz = r.sz * b[r.kz], cz = r.sz * c[r.kz];
+  const float t_scaled = u * az + v * bz + w * cz;
+  const float inv_det = 1.0f / det;
+  const float t = t_scaled * inv_det;
+  if (!(t >= tmin && t <= tmax)) return false;  // also rejects NaN
+  t_out = t;
+  u_out = v * inv_det;
+  v_out = w * inv_det;
+  return true;
+}
+
+// Convenience: closest-hit update of `hit` with triangle `prim` under the tie rule of Hit.
+inline bool intersect_triangle(const WatertightRay& r, const Triangle& tri, std::uint32_t prim,
+                               float tmin, Hit& hit) {
+  Hit candidate;
+  if (!intersect_triangle(r, tri, tmin, hit.t, candidate.t, candidate.u, candidate.v)) return false;
+  candidate.prim = prim;
+  if (!candidate.closer_than(hit)) return false;
+  hit = candidate;
+  return true;
+}
+
+}  // namespace splitray

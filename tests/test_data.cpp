@@ -1,0 +1,31 @@
+#include "test_data.hpp"
+
+#include <cstdlib>
+
+namespace splitray::test {
+
+std::filesystem::path source_dir() { return SPLITRAY_SOURCE_DIR; }
+
+std::filesystem::path shared_data_dir() {
+  if (const char* env = std::getenv("SPLITRAY_SHARED_DATA")) return env;
+  const auto dir = source_dir().parent_path() / "shared" / "data";
+  return std::filesystem::is_directory(dir) ? dir : std::filesystem::path{};
+}
+
+std::string shared_file(const std::string& relative) {
+  const auto dir = shared_data_dir();
+  if (dir.empty()) return {};
+  const auto path = dir / relative;
+  return std::filesystem::exists(path) ? path.string() : std::string{};
+}
+
+std::string vendored_file(const std::string& relative) { return (source_dir() / "data" / relative).string(); }
+
+std::filesystem::path temp_dir(const std::string& name) {
+  const auto dir = std::filesystem::path(SPLITRAY_BINARY_DIR) / "test-tmp" / name;
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+}  // namespace splitray::test
