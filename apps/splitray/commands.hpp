@@ -9,5 +9,6 @@ void add_render_command(CLI::App& app);
 void add_build_command(CLI::App& app);
 void add_trace_command(CLI::App& app);
 void add_bench_command(CLI::App& app);
+void add_knn_command(CLI::App& app);
 
 }  // namespace splitray::app

@@ -56,6 +56,13 @@ class Accel {
   virtual void occluded(std::span<const Ray> rays, std::span<std::uint8_t> occluded) const;
 
   virtual const AccelStats& stats() const = 0;
+
+  // Moves the structure to a deformed mesh with the same triangles (count and order) without
+  // rebuilding. Returns false when the structure cannot refit (then rebuild it).
+  virtual bool refit(std::span<const Triangle> triangles) {
+    (void)triangles;
+    return false;
+  }
 };
 
 // Creates a structure by name ("kd", "brute", "embree", ...). Throws Error on an unknown

@@ -2,7 +2,9 @@
 #include <map>
 
 #include "splitray/accel/accel.hpp"
+#include "splitray/accel/bih/bih_accel.hpp"
 #include "splitray/accel/brute/brute.hpp"
+#include "splitray/accel/bvh/bvh_accel.hpp"
 #include "splitray/accel/embree/embree_accel.hpp"
 #include "splitray/accel/kd/kd_accel.hpp"
 #include "splitray/core/errors.hpp"
@@ -22,6 +24,8 @@ const std::map<std::string, Entry>& registry() {
       {"brute", {{"none"}, make_brute}},
       {"kd", {kd_builder_names(), make_kd}},
       {"embree", {{"medium", "low", "high"}, make_embree}},
+      {"bih", {{"global", "median", "middle", "sah"}, make_bih}},
+      {"bvh", {{"binned", "sbvh"}, make_bvh}},
   };
   return entries;
 }

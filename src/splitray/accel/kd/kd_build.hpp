@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "splitray/accel/accel.hpp"
+#include "splitray/accel/kd/kd_tree.hpp"
 
 namespace splitray {
 
@@ -29,5 +30,9 @@ using KdBuilder = KdBuildResult (*)(std::span<const Triangle>, const Aabb&, cons
 KdBuildResult build_kd_sah(std::span<const Triangle>, const Aabb&, const BuildConfig&);     // event sweep
 KdBuildResult build_kd_golden(std::span<const Triangle>, const Aabb&, const BuildConfig&);  // paper 000
 KdBuildResult build_kd_binned(std::span<const Triangle>, const Aabb&, const BuildConfig&);  // bins
+
+// Lays out a builder's tree as compact nodes, depth first (below child right after its parent),
+// leaves' references in the same order. Throws Error when the tree exceeds the node format.
+KdTree flatten_kd(const KdBuildNode& root, const Aabb& bounds);
 
 }  // namespace splitray

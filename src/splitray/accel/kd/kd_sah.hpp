@@ -3,6 +3,7 @@
 // (Wald & Havran 2006, §3): C(p) = lambda(p) * (K_T + K_I * (P_L N_L + P_R N_R)),
 // lambda = 1 - empty_bonus when one side is empty; a node becomes a leaf when no split
 // costs less than K_I * N, when N <= max_leaf_prims, or at the maximum depth.
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 
@@ -33,12 +34,42 @@ struct KdSplitCost {
     return lambda * (traversal + intersection * (p_below * static_cast<double>(n_below) +
                                                  p_above * static_cast<double>(n_above)));
   }
+
+  // split() for many positions on one box and axis, with the per-box terms computed once;
+  // gives bit-identical costs.
+  class Axis {
+   public:
+    Axis(const KdSplitCost& cost, const Aabb& box, int axis) : cost_(cost), lo_(box.lo[axis]), hi_(box.hi[axis]) {
+      const Vec3 e = box.extent();
+      const int a1 = axis == 2 ? 0 : axis + 1, a2 = a1 == 2 ? 0 : a1 + 1;
+      inv_area_ = 1.0 / box.half_area();
+      cap_ = static_cast<double>(e[a1]) * e[a2];
+      ring_ = static_cast<double>(e[a1]) + e[a2];
+    }
+    double operator()(float position, std::size_t n_below, std::size_t n_above) const {
+      const double below = position - lo_, above = hi_ - position;
+      const double p_below = (cap_ + below * ring_) * inv_area_;
+      const double p_above = (cap_ + above * ring_) * inv_area_;
+      const double lambda = (n_below == 0 || n_above == 0) ? cost_.empty_factor : 1.0;
+      return lambda * (cost_.traversal + cost_.intersection * (p_below * static_cast<double>(n_below) +
+                                                               p_above * static_cast<double>(n_above)));
+    }
+
+   private:
+    const KdSplitCost& cost_;
+    float lo_, hi_;
+    double inv_area_, cap_, ring_;
+  };
 };
+
+// Deepest tree the traversal's fixed stack takes; kd_max_depth never exceeds it.
+inline constexpr int kKdDepthLimit = 64;
 
 // 8 + 1.3 log2(N) levels, as in pbrt and Wald & Havran, unless the config says otherwise.
 inline int kd_max_depth(const BuildConfig& config, std::size_t prims) {
-  if (config.max_depth > 0) return config.max_depth;
-  return static_cast<int>(std::lround(8 + 1.3 * std::log2(static_cast<double>(std::max<std::size_t>(prims, 1)))));
+  if (config.max_depth > 0) return std::min(config.max_depth, kKdDepthLimit);
+  const double auto_depth = 8 + 1.3 * std::log2(static_cast<double>(std::max<std::size_t>(prims, 1)));
+  return std::min(static_cast<int>(std::lround(auto_depth)), kKdDepthLimit);
 }
 
 }  // namespace splitray

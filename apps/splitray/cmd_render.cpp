@@ -1,0 +1,127 @@
+// splitray render [SCENE] -o FILE.png: Whitted ray tracing of a mesh, a JSON scene or the
+// built-in default scene, with a progress bar on a terminal and a summary at the end.
+#include <fmt/core.h>
+
+#include <filesystem>
+#include <memory>
+
+#include "commands.hpp"
+#include "options.hpp"
+#include "progress.hpp"
+#include "splitray/core/errors.hpp"
+#include "splitray/core/timer.hpp"
+#include "splitray/io/mesh_io.hpp"
+#include "splitray/render/default_scene.hpp"
+#include "splitray/render/whitted.hpp"
+
+namespace splitray::app {
+
+namespace {
+
+struct RenderCommand {
+  std::string scene;  // empty = built-in default scene
+  std::string output = "splitray.png";
+  std::string camera;
+  int width = 800;
+  int height = 600;
+  int max_depth = 5;
+  AccelOptions accel;
+  bool json = false;
+};
+
+// Fails before a long render rather than after it when the output cannot be written.
+void check_output_path(const std::string& output) {
+  const std::filesystem::path parent = std::filesystem::path(output).parent_path();
+  std::error_code error;
+  if (!parent.empty() && !std::filesystem::is_directory(parent, error))
+    throw Error(output, "cannot write: folder " + parent.string() + " does not exist");
+  if (std::filesystem::is_directory(output, error))
+    throw Error(output, "cannot write: it is a folder");
+}
+
+void run(const RenderCommand& command) {
+  check_output_path(command.output);
+  ProgressBar bar("render");
+  bar.status(command.scene.empty() ? "generating the default scene ..." : "loading " + command.scene + " ...");
+  const Timer load_timer;
+  const Scene scene = command.scene.empty() ? default_scene() : load_scene(command.scene);
+  const double load_ms = load_timer.ms();
+
+  const float default_vfov = scene.camera ? scene.camera->vfov_degrees : Camera{}.vfov_degrees;
+  const Camera camera = !command.camera.empty()
+                            ? to_camera(parse_camera(command.camera), default_vfov)
+                            : (scene.camera ? *scene.camera : Camera::frame(scene.bounds()));
+
+  RenderOptions options;
+  options.width = command.width;
+  options.height = command.height;
+  options.max_depth = command.max_depth;
+  options.accel = command.accel.accel;
+  options.build = command.accel.build;
+  bar.status(fmt::format("building {} on the scene ...", command.accel.accel));
+  options.progress = [&bar](double fraction) { bar.update(fraction); };
+  const RenderResult result = render_whitted(scene, camera, options);
+  bar.finish();
+  write_png(command.output, result.image);
+
+  const AccelStats& stats = result.accel_stats;
+  const double mrays_per_s = result.render_ms > 0 ? result.rays / (result.render_ms * 1e3) : 0.0;
+  const int threads = effective_threads(command.accel.build.threads);
+  const std::string scene_name = command.scene.empty() ? "default" : command.scene;
+  if (command.json) {
+    print_json({{"scene", scene_name},
+                {"output", command.output},
+                {"width", command.width},
+                {"height", command.height},
+                {"max_depth", command.max_depth},
+                {"threads", threads},
+                {"triangles", stats.prims},
+                {"accel", stats.accel},
+                {"builder", stats.builder},
+                {"load_ms", load_ms},
+                {"build_ms", stats.build_ms},
+                {"render_ms", result.render_ms},
+                {"rays", result.rays},
+                {"mrays_per_s", mrays_per_s},
+                {"accel_stats", stats_json(stats)}});
+    return;
+  }
+  fmt::print("splitray render: wrote {} ({} x {})\n", command.output, command.width, command.height);
+  print_table({
+      {"scene", command.scene.empty() ? "built-in default scene" : command.scene},
+      {"triangles", std::to_string(stats.prims)},
+      {"structure", fmt::format("{}, {:.2f} MiB", structure_name(stats),
+                                stats.bytes / (1024.0 * 1024.0))},
+      {"load", fmt::format("{:.1f} ms", load_ms)},
+      {"build", fmt::format("{:.1f} ms", stats.build_ms)},
+      {"render", fmt::format("{:.1f} ms, {} threads, max depth {}", result.render_ms, threads,
+                             command.max_depth)},
+      {"rays", fmt::format("{} ({:.2f} Mrays/s)", result.rays, mrays_per_s)},
+  });
+}
+
+}  // namespace
+
+void add_render_command(CLI::App& app) {
+  auto command = std::make_shared<RenderCommand>();
+  CLI::App* sub = app.add_subcommand(
+      "render", "Render a mesh, a JSON scene or the built-in default scene to a PNG");
+  sub->add_option("SCENE", command->scene,
+                  "Mesh file (OBJ, PLY, STL, OFF, glTF/GLB, COLLADA, MD2, ...; also *.gz) or JSON "
+                  "scene file; without it the built-in default scene");
+  sub->add_option("-o,--output", command->output, "PNG file to write (written atomically)");
+  sub->add_option("-W,--width", command->width, "Image width in pixels")->check(CLI::Range(1, 16384));
+  sub->add_option("-H,--height", command->height, "Image height in pixels")
+      ->check(CLI::Range(1, 16384));
+  add_camera_option(*sub, command->camera)
+      ->description(
+          "Camera eye EX,EY,EZ, target TX,TY,TZ and optional vertical FOV in degrees (up is +y); "
+          "default: the scene's camera, or one framed on the scene");
+  sub->add_option("-d,--max-depth", command->max_depth, "Reflection and refraction bounces")
+      ->check(CLI::Range(0, 64));
+  add_accel_options(*sub, command->accel);
+  sub->add_flag("--json", command->json, "Print the summary as one JSON object");
+  sub->callback([command] { run(*command); });
+}
+
+}  // namespace splitray::app

@@ -1,0 +1,56 @@
+// splitray: one program, one subcommand per job. Errors end here: CLI11's own (usage,
+// bad values) through app.exit, splitray::Error as "splitray: <message>" and exit code 1.
+#include <fmt/core.h>
+
+#include <cstdio>
+#include <exception>
+#include <new>
+
+#include "commands.hpp"
+#include "splitray/core/errors.hpp"
+
+namespace {
+
+int fail(const char* message) {
+  std::fflush(stdout);
+  fmt::print(stderr, "splitray: {}\n", message);
+  return 1;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "splitray: spatial subdivision hierarchies (SAH kd-trees and friends) and a CPU ray "
+      "tracer.\nRun 'splitray COMMAND --help' for the options of a command.",
+      "splitray"};
+  app.set_version_flag("--version", SPLITRAY_VERSION);
+  app.require_subcommand(1);
+  app.option_defaults()->always_capture_default();
+  app.footer("Errors are printed as 'splitray: <message>' with exit code 1; usage errors exit "
+             "with CLI11's codes (non-zero).");
+
+  splitray::app::add_render_command(app);
+  splitray::app::add_build_command(app);
+  splitray::app::add_trace_command(app);
+  splitray::app::add_bench_command(app);
+
+  try {
+    // Name an unknown command rather than only saying that a command is required.
+    if (argc > 1 && argv[1][0] != '-') {
+      bool known = false;
+      for (const CLI::App* command : app.get_subcommands({})) known = known || command->check_name(argv[1]);
+      if (!known) throw CLI::ExtrasError({argv[1]});
+    }
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const splitray::Error& e) {
+    return fail(e.what());
+  } catch (const std::bad_alloc&) {
+    return fail("out of memory");
+  } catch (const std::exception& e) {
+    return fail(e.what());
+  }
+  return 0;
+}

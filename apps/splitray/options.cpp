@@ -1,0 +1,222 @@
+#include "options.hpp"
+
+#include <fmt/core.h>
+
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <filesystem>
+#include <iostream>
+#include <system_error>
+
+#include "splitray/core/errors.hpp"
+#include "splitray/core/parallel.hpp"
+#include "splitray/core/scene.hpp"
+#include "splitray/core/timer.hpp"
+#include "splitray/io/mesh_io.hpp"
+
+namespace splitray::app {
+
+namespace {
+
+std::string join(const std::vector<std::string>& names, const std::string& separator) {
+  std::string out;
+  for (const auto& name : names) out += (out.empty() ? "" : separator) + name;
+  return out;
+}
+
+// "kd: sah (default), golden, binned; brute: none; ..." for the --builder help.
+std::string builders_help() {
+  std::vector<std::string> parts;
+  for (const auto& accel : accel_names()) {
+    auto builders = builder_names(accel);
+    if (!builders.empty()) builders.front() += " (default)";
+    parts.push_back(accel + ": " + join(builders, ", "));
+  }
+  return join(parts, "; ");
+}
+
+// The problem with a --camera string, or "" when it parses (then `out` holds it).
+std::string camera_problem(const std::string& text, CameraSpec& out) {
+  std::vector<float> values;
+  std::size_t begin = 0;
+  while (begin <= text.size()) {
+    std::size_t end = text.find(',', begin);
+    if (end == std::string::npos) end = text.size();
+    std::string field = text.substr(begin, end - begin);
+    field.erase(0, field.find_first_not_of(' '));
+    field.erase(field.find_last_not_of(' ') + 1);
+    float value = 0;
+    const char* first = field.data();
+    const char* last = field.data() + field.size();
+    if (!field.empty() && *first == '+') ++first;  // from_chars rejects a leading '+'
+    const auto [ptr, ec] = std::from_chars(first, last, value);
+    if (field.empty() || ec != std::errc{} || ptr != last || !std::isfinite(value))
+      return "'" + field + "' is not a finite number (expected EX,EY,EZ,TX,TY,TZ[,FOV])";
+    values.push_back(value);
+    begin = end + 1;
+  }
+  if (values.size() != 6 && values.size() != 7)
+    return "expected 6 or 7 comma-separated numbers EX,EY,EZ,TX,TY,TZ[,FOV], got " +
+           std::to_string(values.size());
+  out.eye = {values[0], values[1], values[2]};
+  out.target = {values[3], values[4], values[5]};
+  out.vfov_degrees.reset();
+  if (values.size() == 7) {
+    if (!(values[6] > 0 && values[6] < 180)) return "FOV must lie between 0 and 180 degrees";
+    out.vfov_degrees = values[6];
+  }
+  if (out.eye == out.target) return "the eye and the target are the same point";
+  return {};
+}
+
+bool ends_with_icase(const std::string& text, const std::string& suffix) {
+  if (text.size() < suffix.size()) return false;
+  return std::equal(suffix.begin(), suffix.end(), text.end() - suffix.size(), [](char a, char b) {
+    return std::tolower(static_cast<unsigned char>(a)) == std::tolower(static_cast<unsigned char>(b));
+  });
+}
+
+std::string fixed(double value, int decimals) { return fmt::format("{:.{}f}", value, decimals); }
+
+}  // namespace
+
+void add_accel_options(CLI::App& command, AccelOptions& options) {
+  command.add_option("-a,--accel", options.accel, "Acceleration structure")
+      ->check(CLI::IsMember(accel_names()));
+  command.add_option("-b,--builder", options.build.builder, "Builder of the structure: " + builders_help());
+  command.add_option("-t,--threads", options.build.threads,
+                     "Worker threads for building and tracing (0 = all cores); results never "
+                     "depend on it")
+      ->check(CLI::NonNegativeNumber);
+  const std::string group = "Build settings";
+  command.add_option("--kt", options.build.traversal_cost, "SAH cost of traversing a node (K_T)")
+      ->check(CLI::PositiveNumber)
+      ->group(group);
+  command.add_option("--ki", options.build.intersection_cost,
+                     "SAH cost of intersecting a triangle (K_I)")
+      ->check(CLI::PositiveNumber)
+      ->group(group);
+  command.add_option("--empty-bonus", options.build.empty_bonus,
+                     "SAH discount for splits that cut off empty space")
+      ->check(CLI::Range(0.0, 1.0))
+      ->group(group);
+  command.add_option("--tree-depth", options.build.max_depth,
+                     "Maximum tree depth (0 = automatic: 8 + 1.3 log2 N)")
+      ->check(CLI::Range(0, 128))
+      ->group(group);
+  command.add_option("--leaf-size", options.build.max_leaf_prims,
+                     "Nodes with this many triangles or fewer become leaves")
+      ->check(CLI::Range(1, 1 << 20))
+      ->group(group);
+  command.add_option("--bins", options.build.bins, "Bins per axis of binned builders")
+      ->check(CLI::Range(2, 1 << 16))
+      ->group(group);
+}
+
+CameraSpec parse_camera(const std::string& text) {
+  CameraSpec spec;
+  const std::string problem = camera_problem(text, spec);
+  if (!problem.empty()) throw Error("--camera", problem);
+  return spec;
+}
+
+Camera to_camera(const CameraSpec& spec, float default_vfov) {
+  Camera camera;
+  camera.eye = spec.eye;
+  camera.target = spec.target;
+  camera.vfov_degrees = spec.vfov_degrees.value_or(default_vfov);
+  const Vec3 forward = normalize(spec.target - spec.eye);
+  if (length(cross(forward, camera.up)) < 1e-4f) camera.up = {0, 0, 1};  // looking straight up/down
+  return camera;
+}
+
+CLI::Option* add_camera_option(CLI::App& command, std::string& text) {
+  const CLI::Validator check(
+      [](std::string& value) {
+        CameraSpec spec;
+        return camera_problem(value, spec);
+      },
+      "", "camera");
+  return command
+      .add_option("-c,--camera", text,
+                  "Pinhole camera: eye EX,EY,EZ, target TX,TY,TZ and optional vertical FOV in "
+                  "degrees (up is +y)")
+      ->type_name("EX,EY,EZ,TX,TY,TZ[,FOV]")
+      ->check(check);
+}
+
+Geometry load_geometry(const std::string& path) {
+  const Timer timer;
+  std::error_code error;
+  if (!std::filesystem::exists(path, error)) throw Error(path, "no such file");
+  if (std::filesystem::is_directory(path, error)) throw Error(path, "is a folder, not a mesh file");
+  Geometry geometry;
+  if (ends_with_icase(path, ".json"))
+    geometry.triangles = flatten(load_scene(path)).triangles;
+  else
+    geometry.triangles = load_mesh(path).triangles();
+  if (geometry.triangles.empty()) throw Error(path, "contains no triangles");
+  geometry.load_ms = timer.ms();
+  return geometry;
+}
+
+nlohmann::ordered_json stats_json(const AccelStats& stats) {
+  return {
+      {"accel", stats.accel},
+      {"builder", stats.builder},
+      {"prims", stats.prims},
+      {"build_ms", stats.build_ms},
+      {"sah_cost", stats.sah_cost ? nlohmann::ordered_json(*stats.sah_cost) : nullptr},
+      {"nodes", stats.nodes},
+      {"leaves", stats.leaves},
+      {"empty_leaves", stats.empty_leaves},
+      {"max_depth", stats.max_depth},
+      {"mean_leaf_depth", stats.mean_leaf_depth},
+      {"mean_leaf_prims", stats.mean_leaf_prims},
+      {"prim_refs", stats.prim_refs},
+      {"bytes", stats.bytes},
+      {"cost_evals", stats.cost_evals},
+  };
+}
+
+std::vector<std::pair<std::string, std::string>> stats_rows(const AccelStats& stats) {
+  const double evals_per_node =
+      stats.nodes > stats.leaves ? static_cast<double>(stats.cost_evals) / (stats.nodes - stats.leaves)
+                                 : 0.0;
+  return {
+      {"accel", stats.accel},
+      {"builder", stats.builder},
+      {"prims", std::to_string(stats.prims)},
+      {"build_ms", fixed(stats.build_ms, 2)},
+      {"sah_cost", stats.sah_cost ? fixed(*stats.sah_cost, 3) : "n/a"},
+      {"nodes", std::to_string(stats.nodes)},
+      {"leaves", std::to_string(stats.leaves)},
+      {"empty_leaves", std::to_string(stats.empty_leaves)},
+      {"max_depth", std::to_string(stats.max_depth)},
+      {"mean_leaf_depth", fixed(stats.mean_leaf_depth, 2)},
+      {"mean_leaf_prims", fixed(stats.mean_leaf_prims, 2)},
+      {"prim_refs", std::to_string(stats.prim_refs)},
+      {"bytes", fmt::format("{} ({:.2f} MiB)", stats.bytes, stats.bytes / (1024.0 * 1024.0))},
+      {"cost_evals", fmt::format("{} ({:.1f} per interior node)", stats.cost_evals, evals_per_node)},
+  };
+}
+
+void print_json(const nlohmann::ordered_json& object) { std::cout << object.dump(2) << std::endl; }
+
+void print_table(const std::vector<std::pair<std::string, std::string>>& rows) {
+  std::size_t width = 0;
+  for (const auto& row : rows) width = std::max(width, row.first.size());
+  for (const auto& [key, value] : rows) fmt::print("{:<{}}  {}\n", key, width, value);
+  std::fflush(stdout);
+}
+
+int effective_threads(int threads) { return threads > 0 ? threads : hardware_threads(); }
+
+std::string structure_name(const AccelStats& stats) {
+  return stats.builder.empty() || stats.builder == "none" ? stats.accel
+                                                          : stats.accel + " (" + stats.builder + ")";
+}
+
+}  // namespace splitray::app

@@ -1,0 +1,61 @@
+#pragma once
+// Options and helpers shared by the subcommands: structure and builder settings, the
+// --camera string, loading the geometry, and printing results as tables or JSON.
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "splitray/accel/accel.hpp"
+#include "splitray/core/camera.hpp"
+#include "splitray/core/triangle.hpp"
+
+namespace splitray::app {
+
+// --accel, --builder, --threads and the BuildConfig tuning options of one subcommand.
+struct AccelOptions {
+  std::string accel = "kd";
+  BuildConfig build;
+};
+void add_accel_options(CLI::App& command, AccelOptions& options);
+
+// --camera EX,EY,EZ,TX,TY,TZ[,FOV]: eye, target and an optional vertical field of view.
+struct CameraSpec {
+  Vec3 eye, target;
+  std::optional<float> vfov_degrees;
+};
+// Throws Error("--camera", ...) naming the problem.
+CameraSpec parse_camera(const std::string& text);
+// The camera of a spec; `default_vfov` when the spec has no FOV. Up is +y unless the view
+// is vertical, then +z.
+Camera to_camera(const CameraSpec& spec, float default_vfov);
+// Adds --camera to `command`, checked by parse_camera as CLI11 parses it.
+CLI::Option* add_camera_option(CLI::App& command, std::string& text);
+
+// The triangles of a mesh file, or of every instance of a JSON scene file (*.json).
+struct Geometry {
+  std::vector<Triangle> triangles;
+  double load_ms = 0;
+};
+Geometry load_geometry(const std::string& path);
+
+// Every field of AccelStats; sah_cost is null when the structure has none.
+nlohmann::ordered_json stats_json(const AccelStats& stats);
+
+// Prints one JSON object (2-space indented) and a newline to stdout.
+void print_json(const nlohmann::ordered_json& object);
+// Prints "key   value" lines with the values aligned.
+void print_table(const std::vector<std::pair<std::string, std::string>>& rows);
+// The rows of print_table for AccelStats, in the order and with the names of stats_json.
+std::vector<std::pair<std::string, std::string>> stats_rows(const AccelStats& stats);
+
+// The worker count `--threads T` stands for (0 = all cores).
+int effective_threads(int threads);
+
+// "kd (sah)".
+std::string structure_name(const AccelStats& stats);
+
+}  // namespace splitray::app

@@ -1,0 +1,165 @@
+#include "bench_report.hpp"
+
+#include <fmt/core.h>
+
+#include <optional>
+
+namespace splitray::bench {
+
+namespace {
+
+using Json = nlohmann::ordered_json;
+
+std::string number(const Json& value, const char* format = "{:.2f}") {
+  if (value.is_null()) return "–";
+  if (value.is_number_float()) return fmt::format(fmt::runtime(format), value.get<double>());
+  if (value.is_number()) return fmt::format("{}", value.get<std::uint64_t>());
+  return value.dump();
+}
+
+std::string with_ratio(const Json& measurement) {
+  std::string text = number(measurement.value("mrays_per_s", Json(nullptr)));
+  if (measurement.contains("ratio")) text += fmt::format(" ({:.2f}×)", measurement["ratio"].get<double>());
+  return text;
+}
+
+std::string mib(std::uint64_t bytes) {
+  return bytes == 0 ? "–" : fmt::format("{:.1f} MiB", static_cast<double>(bytes) / (1024.0 * 1024.0));
+}
+
+std::string check(const Json& row) {
+  if (row["accel"] == "kd" && row["builder"] == "sah") return "reference";
+  std::string text;
+  for (const auto& [kind, t] : row["trace"].items()) {
+    if (!t.contains("matches_reference")) continue;
+    if (!text.empty()) text += "; ";
+    text += t["matches_reference"].get<bool>()
+                ? kind + " ✓"
+                : fmt::format("{} ✗ {} rays differ", kind, t["rays_differing_from_reference"].get<std::uint64_t>());
+    if (!t.value("single_equals_batched", true)) text += " (1-ray ≠ batched)";
+  }
+  return text.empty() ? "–" : text;
+}
+
+const Json* find_row(const Json& rows, const std::string& accel, const std::string& builder) {
+  for (const Json& row : rows)
+    if (row["accel"] == accel && row["builder"] == builder && !row.contains("error")) return &row;
+  return nullptr;
+}
+
+// "4.2× ✓" against a lower (at_least) or upper bound.
+std::string target(std::optional<double> value, double bound, bool at_least) {
+  if (!value) return "–";
+  const bool met = at_least ? *value >= bound : *value <= bound;
+  return fmt::format("{:.2f}{}", *value, met ? " ✓" : " ✗");
+}
+
+std::optional<double> ratio(const Json* a, const Json* b, const char* key) {
+  if (!a || !b || (*a)[key].is_null() || (*b)[key].is_null()) return std::nullopt;
+  return (*a)[key].get<double>() / (*b)[key].get<double>();
+}
+
+std::optional<double> trace_target(const Json* row, const char* kind) {
+  if (!row || !(*row)["trace"].contains(kind)) return std::nullopt;
+  const Json& batched = (*row)["trace"][kind]["batched"];
+  if (!batched.contains("ratio_to_embree_single")) return std::nullopt;
+  return batched["ratio_to_embree_single"].get<double>();
+}
+
+}  // namespace
+
+std::string markdown_report(const Json& report) {
+  const Json& machine = report["machine"];
+  const Json& settings = report["settings"];
+  std::string out = "# Build and trace: kd-tree builders against Embree\n\n";
+  out += fmt::format(
+      "Measured {} on {} ({} threads of {}), {}, Embree {}; load average {:.1f} at the start, "
+      "{:.1f} at the end. Medians of {} runs after a warm-up; {} rays per kind (seed {}), the "
+      "same rays for every structure.\n\n",
+      machine["date_utc"].get<std::string>(), machine["cpu"].get<std::string>(),
+      machine["threads"].get<int>(), machine["hardware_threads"].get<int>(),
+      machine["compiler"].get<std::string>(), machine["embree"].get<std::string>(),
+      machine["load_average_start"].get<double>(), machine.value("load_average_end", -1.0),
+      settings["runs"].get<int>(), settings["rays_per_kind"].get<std::uint64_t>(),
+      settings["seed"].get<std::uint64_t>());
+  out +=
+      "Ratios (×) are to **Embree medium** (its default build quality) on the same mesh in the "
+      "same run: build time (lower is better) and throughput (higher is better). *1-ray*: the "
+      "structure's single-ray call on every core (Embree: `rtcIntersect1`); *batched*: its "
+      "batched call (Embree: `rtcIntersect8` packets, coherent `rtcIntersect1M` streams for rays "
+      "from one eye). *check*: hit count and id checksum against kd sah's on the same rays "
+      "(Embree is not watertight and breaks ties differently, so a few rays may differ).\n\n";
+
+  out += "## Build\n\n| mesh | triangles | structure | build ms | × Embree | SAH cost | cost evals | nodes | memory |\n";
+  out += "|---|--:|---|--:|--:|--:|--:|--:|--:|\n";
+  for (const Json& mesh : report["meshes"]) {
+    for (const Json& row : mesh["results"]) {
+      const std::string structure = row["accel"].get<std::string>() + " " + row["builder"].get<std::string>();
+      if (row.contains("error")) {
+        out += fmt::format("| {} | {} | {} | failed: {} | | | | | |\n", mesh["name"].get<std::string>(),
+                           number(mesh["triangles"]), structure, row["error"].get<std::string>());
+        continue;
+      }
+      out += fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", mesh["name"].get<std::string>(),
+                         number(mesh["triangles"]), structure, number(row["build_ms"]),
+                         row.contains("build_ratio") ? number(row["build_ratio"]) : "–",
+                         number(row["sah_cost"], "{:.1f}"), number(row["cost_evals"]),
+                         row["nodes"].get<std::uint64_t>() ? number(row["nodes"]) : "–",
+                         mib(row["bytes"].get<std::uint64_t>()));
+    }
+  }
+
+  out += "\n## Trace (Mrays/s)\n\n| mesh | view | structure | primary 1-ray | primary batched | diffuse 1-ray | diffuse batched | check |\n";
+  out += "|---|---|---|--:|--:|--:|--:|---|\n";
+  for (const Json& mesh : report["meshes"]) {
+    for (const Json& row : mesh["results"]) {
+      if (row.contains("error")) continue;
+      std::string cells;
+      for (const char* kind : {"primary", "diffuse"}) {
+        if (!row["trace"].contains(kind)) {
+          cells += " – | – |";
+          continue;
+        }
+        const Json& t = row["trace"][kind];
+        cells += fmt::format(" {} | {} |", with_ratio(t["single"]), with_ratio(t["batched"]));
+      }
+      std::string view = mesh["camera"]["view"].get<std::string>();
+      if (row["trace"].contains("primary"))
+        view += fmt::format(", {:.0f}% hit", 100.0 * row["trace"]["primary"]["hits"].get<double>() /
+                                                 settings["rays_per_kind"].get<double>());
+      out += fmt::format("| {} | {} | {} {} |{} {} |\n", mesh["name"].get<std::string>(), view,
+                         row["accel"].get<std::string>(),
+                         row["builder"].get<std::string>(), cells, check(row));
+    }
+  }
+
+  out += "\n## Targets of issue 3\n\n";
+  out += "Build-time ratios are speed-ups (sah's time / the builder's); trace ratios are kd sah's "
+         "tree, batched, over Embree medium's `rtcIntersect1`.\n\n";
+  out += "| mesh | golden speed-up (≥ 4) | golden SAH / sah (≤ 1.05) | binned speed-up (≥ 10) | "
+         "binned SAH / sah (≤ 1.10) | binned time / Embree (≤ 1.5) | primary (≥ 1.0) | diffuse (≥ 0.7) |\n";
+  out += "|---|--:|--:|--:|--:|--:|--:|--:|\n";
+  for (const Json& mesh : report["meshes"]) {
+    const Json& rows = mesh["results"];
+    const Json* sah = find_row(rows, "kd", "sah");
+    const Json* golden = find_row(rows, "kd", "golden");
+    const Json* binned = find_row(rows, "kd", "binned");
+    const Json* embree = find_row(rows, "embree", "medium");
+    out += fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} |\n", mesh["name"].get<std::string>(),
+                       target(ratio(sah, golden, "build_ms"), 4, true),
+                       target(ratio(golden, sah, "sah_cost"), 1.05, false),
+                       target(ratio(sah, binned, "build_ms"), 10, true),
+                       target(ratio(binned, sah, "sah_cost"), 1.10, false),
+                       target(ratio(binned, embree, "build_ms"), 1.5, false),
+                       target(trace_target(sah, "primary"), 1.0, true),
+                       target(trace_target(sah, "diffuse"), 0.7, true));
+  }
+
+  if (!report["notes"].empty()) {
+    out += "\n## Notes\n\n";
+    for (const Json& note : report["notes"]) out += "- " + note.get<std::string>() + "\n";
+  }
+  return out;
+}
+
+}  // namespace splitray::bench

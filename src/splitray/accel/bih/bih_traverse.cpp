@@ -1,0 +1,157 @@
+// BIH traversal (paper 004): like a kd-tree, the ray's parameter interval is clipped at the
+// node's planes, giving four cases (only the near child, only the far child, both -- far one
+// pushed --, or neither, which a kd-tree never has) plus the fifth for one-child nodes (the
+// child's interval, or nothing). Planes are conservative (robust_ray.hpp) and a popped node
+// is searched while its entry is not behind the closest hit, so ties resolve as in `brute`.
+#include <algorithm>
+
+#include "splitray/accel/bih/bih.hpp"
+#include "splitray/accel/bvh/robust_ray.hpp"
+#include "splitray/accel/sah_cost.hpp"
+
+namespace splitray {
+
+namespace {
+
+constexpr int kStackSize = 64;
+
+template <bool AnyHit>
+bool traverse(std::span<const BihNode> nodes, std::span<const Triangle> tris, std::span<const std::uint32_t> ids,
+              const Aabb& scene, float magnitude, const Ray& ray, Hit& hit) {
+  const RobustRay r(ray, scene, magnitude);
+  float tn = ray.tmin, tf = hit.t;
+  for (int a = 0; a < 3; ++a) {
+    tn = max_keep(tn, r.entry(a, scene.lo[a], scene.hi[a]));
+    tf = min_keep(tf, r.exit(a, scene.lo[a], scene.hi[a]));
+  }
+  if (!(tn <= tf)) return false;
+  const WatertightRay w(ray);
+  struct Entry {
+    std::uint32_t node;
+    float tn, tf;
+  };
+  Entry stack[kStackSize];
+  int sp = 0;
+  std::uint32_t node = 0;
+  for (;;) {
+    const BihNode& n = nodes[node];
+    if (!n.leaf()) {
+      const int a = n.axis();
+      const int neg = r.negative[a];
+      const std::uint32_t child = n.child();
+      if (n.one_child()) {
+        tn = max_keep(tn, (n.clip[neg] - r.org_near[a]) * r.inv[a]);
+        tf = min_keep(tf, (n.clip[1 - neg] - r.org_far[a]) * r.inv[a]);
+        if (tn <= tf) {
+          node = child;
+          continue;
+        }
+      } else {
+        // Near child: the left one (x <= clip[0]) for a positive direction, else the right one.
+        const float t_exit_near = (n.clip[neg] - r.org_far[a]) * r.inv[a];
+        const float t_entry_far = (n.clip[1 - neg] - r.org_near[a]) * r.inv[a];
+        const bool near_hit = !(tn > t_exit_near);  // NaN (ray in the plane): enter
+        const bool far_hit = !(t_entry_far > tf);
+        if (near_hit) {
+          if (far_hit) stack[sp++] = {child + 1 - neg, max_keep(tn, t_entry_far), tf};
+          node = child + neg;
+          tf = min_keep(tf, t_exit_near);
+          continue;
+        }
+        if (far_hit) {
+          node = child + 1 - neg;
+          tn = max_keep(tn, t_entry_far);
+          continue;
+        }
+      }
+    } else {
+      const std::uint32_t end = n.first() + n.count();
+      for (std::uint32_t i = n.first(); i < end; ++i) {
+        if constexpr (AnyHit) {
+          float t, u, v;
+          if (intersect_triangle(w, tris[i], ray.tmin, ray.tmax, t, u, v)) return true;
+        } else {
+          intersect_triangle(w, tris[i], ids[i], ray.tmin, hit);
+        }
+      }
+    }
+    for (;;) {  // pop the next node not behind the closest hit
+      if (sp == 0) return hit.found();
+      const Entry& e = stack[--sp];
+      if (e.tn <= hit.t) {
+        node = e.node;
+        tn = e.tn;
+        tf = std::min(e.tf, hit.t);
+        break;
+      }
+    }
+  }
+}
+
+}  // namespace
+
+Hit Bih::intersect(const Ray& ray) const {
+  Hit hit;
+  if (nodes_.empty()) return hit;
+  hit.t = ray.tmax;
+  traverse<false>(nodes_, tris_, ids_, scene_, magnitude_, ray, hit);
+  if (!hit.found()) hit.t = kInfinity;
+  return hit;
+}
+
+bool Bih::occluded(const Ray& ray) const {
+  if (nodes_.empty()) return false;
+  Hit hit;
+  hit.t = ray.tmax;
+  return traverse<true>(nodes_, tris_, ids_, scene_, magnitude_, ray, hit);
+}
+
+void Bih::fill_stats(AccelStats& stats, float traversal_cost, float intersection_cost) const {
+  stats.prims = stats.prim_refs = ids_.size();
+  stats.bytes = nodes_.size() * sizeof(BihNode) + ids_.size() * sizeof(std::uint32_t) + tris_.size() * sizeof(Triangle);
+  stats.nodes = stats.leaves = stats.empty_leaves = 0;
+  stats.max_depth = 0;
+  stats.cost_evals = cost_evals_;
+  if (nodes_.empty()) return;
+  // Each node's box is the region the traversal knows: the scene cut by the ancestors' planes.
+  SahCost cost(scene_, traversal_cost, intersection_cost);
+  struct Item {
+    std::uint32_t node;
+    int depth;
+    Aabb region;
+  };
+  std::vector<Item> stack{{0, 0, scene_}};
+  double depth_sum = 0;
+  while (!stack.empty()) {
+    const Item item = stack.back();
+    stack.pop_back();
+    const BihNode& n = nodes_[item.node];
+    ++stats.nodes;
+    stats.max_depth = std::max(stats.max_depth, item.depth);
+    if (n.leaf()) {
+      ++stats.leaves;
+      if (n.count() == 0) ++stats.empty_leaves;
+      depth_sum += item.depth;
+      cost.leaf(item.region, n.count());
+      continue;
+    }
+    cost.interior(item.region);
+    const int a = n.axis();
+    Aabb first = item.region, second = item.region;
+    if (n.one_child()) {
+      first.lo[a] = std::max(first.lo[a], n.clip[0]);
+      first.hi[a] = std::min(first.hi[a], n.clip[1]);
+      stack.push_back({n.child(), item.depth + 1, first});
+      continue;
+    }
+    first.hi[a] = std::min(first.hi[a], n.clip[0]);
+    second.lo[a] = std::max(second.lo[a], n.clip[1]);
+    stack.push_back({n.child() + 1, item.depth + 1, second});
+    stack.push_back({n.child(), item.depth + 1, first});
+  }
+  stats.mean_leaf_depth = depth_sum / static_cast<double>(stats.leaves);
+  stats.mean_leaf_prims = static_cast<double>(stats.prim_refs) / static_cast<double>(std::max<std::size_t>(stats.leaves - stats.empty_leaves, 1));
+  stats.sah_cost = cost.value();
+}
+
+}  // namespace splitray

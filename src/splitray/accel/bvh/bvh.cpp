@@ -1,0 +1,125 @@
+#include "splitray/accel/bvh/bvh.hpp"
+
+#include <algorithm>
+
+#include "splitray/accel/bvh/robust_ray.hpp"
+#include "splitray/accel/sah_cost.hpp"
+#include "splitray/core/errors.hpp"
+#include "splitray/core/parallel.hpp"
+
+namespace splitray {
+
+BvhBuildOptions BvhBuildOptions::from(const BuildConfig& config) {
+  BvhBuildOptions o;
+  o.traversal_cost = config.traversal_cost;
+  o.intersection_cost = config.intersection_cost;
+  o.min_leaf = std::max(config.max_leaf_prims, 1);
+  o.bins = std::clamp(config.bins, 4, 256);
+  o.max_depth = config.max_depth > 0 ? std::min(config.max_depth, 64) : 64;
+  return o;
+}
+
+std::vector<std::string> Bvh::builder_names() { return {"binned", "sbvh", "embree"}; }
+
+Bvh Bvh::build(std::span<const Triangle> triangles, const std::string& builder, const BvhBuildOptions& options) {
+  std::vector<PrimRef> refs = make_prim_refs(triangles);
+  BvhBuildResult result;
+  if (builder == "binned")
+    result = build_bvh_binned(triangles, std::move(refs), options);
+  else if (builder == "sbvh")
+    result = build_bvh_sbvh(triangles, std::move(refs), options);
+  else if (builder == "embree")
+    result = build_bvh_embree(triangles, std::move(refs), options, true);
+  else
+    throw Error("--builder", "'" + builder + "' is not a BVH builder (known: binned, sbvh, embree)");
+  return from_pieces(triangles, *result.root);
+}
+
+Bvh Bvh::from_pieces(std::span<const Triangle> triangles, const BvhPiece& root) {
+  Bvh bvh;
+  bvh.triangle_count_ = triangles.size();
+  flatten_pieces<BvhNodeTraits>(root, bvh.nodes_, bvh.ids_, 2);
+  if (bvh.nodes_.size() == 2 && !bvh.nodes_[0].leaf() && bvh.ids_.empty()) bvh.nodes_.clear();  // nothing to hold
+  bvh.tris_.resize(bvh.ids_.size());
+  parallel_chunks(bvh.ids_.size(), 4096, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      if (bvh.ids_[i] >= triangles.size()) throw Error("bvh", "a leaf refers to a triangle that does not exist");
+      bvh.tris_[i] = triangles[bvh.ids_[i]];
+    }
+  });
+  bvh.update_scene_bounds();
+  return bvh;
+}
+
+void Bvh::update_scene_bounds() {
+  scene_ = nodes_.empty() ? Aabb{} : nodes_[0].box();
+  for (const Triangle& t : tris_) scene_.extend(t.bounds());  // clipped boxes may be smaller
+  magnitude_ = nodes_.empty() ? 0.0f : coordinate_magnitude(scene_);
+}
+
+void Bvh::refit(std::span<const Triangle> triangles) {
+  if (triangles.size() != triangle_count_)
+    throw Error("bvh refit", "the deformed mesh has " + std::to_string(triangles.size()) +
+                                 " triangles, the BVH was built on " + std::to_string(triangle_count_));
+  parallel_chunks(ids_.size(), 4096, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) tris_[i] = triangles[ids_[i]];
+  });
+  // Children always come after their parent: one backward pass is bottom-up.
+  for (std::size_t i = nodes_.size(); i-- > 0;) {
+    BvhNode& n = nodes_[i];
+    if (i == 1) continue;  // the unused slot
+    Aabb box;
+    if (n.leaf()) {
+      for (std::uint32_t r = n.index; r < n.index + n.count(); ++r) box.extend(tris_[r].bounds());
+    } else {
+      box = merge(nodes_[n.index].box(), nodes_[n.index + 1].box());
+    }
+    n.lo = box.lo;
+    n.hi = box.hi;
+  }
+  update_scene_bounds();
+}
+
+std::size_t Bvh::bytes() const {
+  return nodes_.size() * sizeof(BvhNode) + ids_.size() * sizeof(std::uint32_t) + tris_.size() * sizeof(Triangle);
+}
+
+void Bvh::fill_stats(AccelStats& stats, float traversal_cost, float intersection_cost) const {
+  stats.prims = triangle_count_;
+  stats.bytes = bytes();
+  stats.prim_refs = ids_.size();
+  stats.nodes = stats.leaves = stats.empty_leaves = 0;
+  stats.max_depth = 0;
+  if (nodes_.empty()) {
+    stats.sah_cost = 0.0;
+    return;
+  }
+  SahCost cost(nodes_[0].box(), traversal_cost, intersection_cost);
+  double depth_sum = 0;
+  struct Item {
+    std::uint32_t node;
+    int depth;
+  };
+  std::vector<Item> stack{{0, 0}};
+  while (!stack.empty()) {
+    const Item item = stack.back();
+    stack.pop_back();
+    const BvhNode& n = nodes_[item.node];
+    ++stats.nodes;
+    stats.max_depth = std::max(stats.max_depth, item.depth);
+    if (n.leaf()) {
+      ++stats.leaves;
+      depth_sum += item.depth;
+      cost.leaf(n.box(), n.count());
+    } else {
+      cost.interior(n.box());
+      stack.push_back({n.index + 1, item.depth + 1});
+      stack.push_back({n.index, item.depth + 1});
+    }
+  }
+  stats.mean_leaf_depth = depth_sum / static_cast<double>(stats.leaves);
+  stats.mean_leaf_prims = static_cast<double>(stats.prim_refs) / static_cast<double>(stats.leaves);
+  stats.sah_cost = cost.value();
+}
+
+}  // namespace splitray

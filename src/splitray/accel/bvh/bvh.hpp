@@ -1,0 +1,69 @@
+#pragma once
+// A binary BVH over triangles: 32-byte nodes (children side by side, pairs cache-line
+// aligned), leaves referencing copies of their triangles, ordered closest-hit and any-hit
+// traversal with a fixed stack, and refitting for meshes that deform with fixed topology.
+//
+//   Bvh bvh = Bvh::build(triangles, "sbvh", BvhBuildOptions::from(config));
+//   Hit hit = bvh.intersect(ray);
+//   bvh.refit(next_frame_triangles);  // same triangle count and order
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "splitray/accel/accel.hpp"
+#include "splitray/accel/bvh/bvh_build.hpp"
+
+namespace splitray {
+
+// An allocator that aligns to 64 bytes, so node pairs share a cache line.
+template <class T>
+struct CacheAligned {
+  using value_type = T;
+  CacheAligned() = default;
+  template <class U>
+  CacheAligned(const CacheAligned<U>&) {}
+  T* allocate(std::size_t n) { return static_cast<T*>(::operator new(n * sizeof(T), std::align_val_t{64})); }
+  void deallocate(T* p, std::size_t) { ::operator delete(p, std::align_val_t{64}); }
+  template <class U>
+  bool operator==(const CacheAligned<U>&) const { return true; }
+};
+
+class Bvh {
+ public:
+  Bvh() = default;
+
+  // Builders: "binned", "sbvh" (ours), "embree" (rtcBuildBVH, high quality, spatial splits).
+  static std::vector<std::string> builder_names();
+  static Bvh build(std::span<const Triangle> triangles, const std::string& builder, const BvhBuildOptions& options);
+  // Lays out a built piece tree whose leaves reference `triangles`.
+  static Bvh from_pieces(std::span<const Triangle> triangles, const BvhPiece& root);
+
+  // Moves the vertices: `triangles` must be the same triangles (count and order) deformed.
+  // Leaf boxes become the bounds of their triangles, interior boxes the union of their children.
+  void refit(std::span<const Triangle> triangles);
+
+  Hit intersect(const Ray& ray) const;
+  bool occluded(const Ray& ray) const;
+
+  // Node statistics and SAH cost (K_T per interior node, K_I per reference, by box area).
+  void fill_stats(AccelStats& stats, float traversal_cost, float intersection_cost) const;
+
+  std::span<const BvhNode> nodes() const { return nodes_; }
+  std::span<const std::uint32_t> prim_ids() const { return ids_; }  // leaf references, leaf order
+  std::size_t triangle_count() const { return triangle_count_; }
+  const Aabb& bounds() const { return scene_; }
+  std::size_t bytes() const;
+
+ private:
+  void update_scene_bounds();
+
+  std::vector<BvhNode, CacheAligned<BvhNode>> nodes_;  // root at 0, slot 1 unused
+  std::vector<std::uint32_t> ids_;                     // triangle id of each leaf reference
+  std::vector<Triangle> tris_;                         // the triangle of each leaf reference
+  std::size_t triangle_count_ = 0;
+  Aabb scene_;             // bounds of all triangles (conservative ray padding)
+  float magnitude_ = 0;
+};
+
+}  // namespace splitray

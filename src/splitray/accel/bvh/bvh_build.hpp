@@ -1,0 +1,87 @@
+#pragma once
+// The parts every BVH builder shares: the 32-byte node, primitive references (a triangle id
+// with bounds that may be clipped to a region), settings, and the builders themselves.
+// A builder returns a Piece tree (piece_tree.hpp) that Bvh lays out.
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "splitray/accel/accel.hpp"
+#include "splitray/accel/bvh/piece_tree.hpp"
+#include "splitray/core/aabb.hpp"
+#include "splitray/core/triangle.hpp"
+
+namespace splitray {
+
+// Two of them fill one cache line: the children of a node are stored side by side.
+struct alignas(32) BvhNode {
+  Vec3 lo;
+  std::uint32_t index = 0;  // interior: first child (the second is index + 1); leaf: first reference
+  Vec3 hi;
+  std::uint32_t meta = 0;   // leaf: reference count (> 0); interior: split axis << 30
+
+  static constexpr std::uint32_t kCountMask = (1u << 30) - 1;
+  bool leaf() const { return (meta & kCountMask) != 0; }
+  std::uint32_t count() const { return meta & kCountMask; }
+  int axis() const { return static_cast<int>(meta >> 30); }
+  Aabb box() const { return {lo, hi}; }
+
+  static BvhNode make_leaf(const Aabb& box, std::uint32_t first, std::uint32_t count) {
+    return {box.lo, first, box.hi, count};
+  }
+  static BvhNode make_interior(const Aabb& box, int axis, std::uint32_t first_child = 0) {
+    return {box.lo, first_child, box.hi, static_cast<std::uint32_t>(axis) << 30};
+  }
+};
+static_assert(sizeof(BvhNode) == 32);
+
+struct BvhNodeTraits {
+  static bool is_leaf(const BvhNode& n) { return n.leaf(); }
+  static std::uint32_t child(const BvhNode& n) { return n.index; }
+  static void set_child(BvhNode& n, std::uint32_t c) { n.index = c; }
+  static void shift_leaf(BvhNode& n, std::uint32_t by) { n.index += by; }
+};
+
+using BvhPiece = Piece<BvhNode>;
+
+// A triangle, or the part of it inside some region, and the bounds of that part.
+struct PrimRef {
+  Aabb box;
+  std::uint32_t prim = 0;
+  Vec3 center() const { return (box.lo + box.hi) * 0.5f; }
+};
+
+std::vector<PrimRef> make_prim_refs(std::span<const Triangle> triangles);  // whole triangles
+
+struct BvhBuildOptions {
+  float traversal_cost = 15;     // SAH K_T
+  float intersection_cost = 20;  // SAH K_I
+  int min_leaf = 1;              // nodes with this many references or fewer are leaves
+  int max_leaf = 8;              // nodes with more are split whenever they can be
+  int bins = 32;                 // SAH bins per axis (object and spatial splits)
+  int max_depth = 64;            // at most 64 (the traversal stack)
+  float sbvh_alpha = 1e-5f;      // SBVH: try spatial splits when overlap / root area > alpha
+
+  static BvhBuildOptions from(const BuildConfig& config);
+};
+
+struct BvhBuildResult {
+  std::unique_ptr<BvhPiece> root;
+  std::uint64_t cost_evals = 0;
+};
+
+// Binned SAH over reference centres (Wald 2007).
+BvhBuildResult build_bvh_binned(std::span<const Triangle> triangles, std::vector<PrimRef> refs,
+                                const BvhBuildOptions& options);
+// Spatial-split BVH (Stich, Friedrich & Dietrich 2009): binned object splits, and spatial
+// splits with reference clipping and unsplitting where the children would overlap by more
+// than sbvh_alpha of the root's area.
+BvhBuildResult build_bvh_sbvh(std::span<const Triangle> triangles, std::vector<PrimRef> refs,
+                              const BvhBuildOptions& options);
+// Embree's custom builder (rtcBuildBVH, high quality with spatial splits through our
+// triangle clipping when `spatial`), converted to our nodes.
+BvhBuildResult build_bvh_embree(std::span<const Triangle> triangles, std::vector<PrimRef> refs,
+                                const BvhBuildOptions& options, bool spatial);
+
+}  // namespace splitray

@@ -1,0 +1,54 @@
+#pragma once
+// Per-ray constants of a conservative slab test, shared by the BVH and the BIH.
+//
+// The watertight triangle test decides hits on rounded, sheared vertex coordinates, so it
+// may report a hit for a ray that misses the exact triangle by a few ulps of the distance
+// between the ray origin and the triangle. A box or clip plane must then still let that ray
+// through, or a hierarchy would lose hits that `brute` finds. Every plane is therefore moved
+// outwards by `pad`, a bound on those errors (32x margin) that grows with the distance from
+// the origin to the scene: entry planes are measured from `org_near` (the origin moved
+// forwards), exit planes from `org_far` (moved backwards). NaN from 0 * inf (a ray parallel
+// to a plane that starts on it) is ignored by the min/max order of the slab test.
+#include <algorithm>
+#include <cmath>
+
+#include "splitray/core/aabb.hpp"
+#include "splitray/core/ray.hpp"
+
+namespace splitray {
+
+// The largest absolute coordinate of a box: rounding of stored bounds scales with it.
+inline float coordinate_magnitude(const Aabb& box) {
+  return std::max(max_component(abs(box.lo)), max_component(abs(box.hi)));
+}
+
+struct RobustRay {
+  Vec3 inv;                // 1 / dir (+-inf for a zero component, signed like the component)
+  Vec3 org_near, org_far;  // origin moved by -+pad along each axis's direction sign
+  int negative[3];         // 1 when the direction component is negative (or -0)
+
+  // `scene` bounds every primitive; `magnitude` is coordinate_magnitude(scene).
+  RobustRay(const Ray& ray, const Aabb& scene, float magnitude) {
+    float reach = 0;  // the largest coordinate distance from the origin to the scene
+    for (int a = 0; a < 3; ++a)
+      reach = std::max(reach, std::max(std::fabs(ray.org[a] - scene.lo[a]), std::fabs(ray.org[a] - scene.hi[a])));
+    const float pad = 0x1p-18f * (reach + magnitude);
+    for (int a = 0; a < 3; ++a) {
+      negative[a] = std::signbit(ray.dir[a]) ? 1 : 0;
+      inv[a] = 1.0f / ray.dir[a];
+      const float step = negative[a] ? -pad : pad;
+      org_near[a] = ray.org[a] + step;
+      org_far[a] = ray.org[a] - step;
+    }
+  }
+
+  // Entry and exit parameters of the ray on a slab [lo, hi] of axis a (entry > exit: missed).
+  float entry(int a, float lo, float hi) const { return ((negative[a] ? hi : lo) - org_near[a]) * inv[a]; }
+  float exit(int a, float lo, float hi) const { return ((negative[a] ? lo : hi) - org_far[a]) * inv[a]; }
+};
+
+// max/min that keep `acc` when `x` is NaN.
+inline float max_keep(float acc, float x) { return acc < x ? x : acc; }
+inline float min_keep(float acc, float x) { return x < acc ? x : acc; }
+
+}  // namespace splitray

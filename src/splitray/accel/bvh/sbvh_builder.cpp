@@ -1,0 +1,236 @@
+// Spatial-split BVH (Stich, Friedrich & Dietrich, "Spatial Splits in Bounding Volume
+// Hierarchies", HPG 2009). Every node tries a binned object split; where its two children
+// would overlap by more than alpha times the root's area it also bins the node's box in space,
+// clipping each reference to the bins it crosses, and takes the cheaper of the two. A spatial
+// split sends each straddling reference to both sides, clipped, unless moving it whole to one
+// side is cheaper (reference unsplitting, §4.4).
+#include <tbb/parallel_invoke.h>
+
+#include <algorithm>
+#include <atomic>
+#include <limits>
+
+#include "splitray/accel/bvh/bvh_build.hpp"
+#include "splitray/accel/bvh/object_split.hpp"
+#include "splitray/accel/kd/clip.hpp"
+
+namespace splitray {
+
+namespace {
+
+constexpr std::size_t kTaskRefs = 4096;
+constexpr int kMaxSpatialBins = 256;
+
+struct SpatialSplit {
+  int axis = -1;
+  float plane = 0;
+  float cost = std::numeric_limits<float>::infinity();
+  Aabb left, right;
+  std::size_t n_left = 0, n_right = 0;
+};
+
+struct SpatialBin {
+  Aabb box;
+  std::uint32_t enter = 0, exit = 0;
+};
+
+// Plane i of an axis binned into `count` bins over [lo, lo + extent]: the one formula used by
+// binning and partitioning.
+inline float bin_plane(float lo, float width, int i) { return lo + static_cast<float>(i) * width; }
+
+class SbvhBuilder {
+ public:
+  SbvhBuilder(std::span<const Triangle> triangles, const BvhBuildOptions& options, const Aabb& root)
+      : tris_(triangles), options_(options), min_overlap_(options.sbvh_alpha * root.half_area()) {}
+
+  std::unique_ptr<BvhPiece> build_piece(std::vector<PrimRef> refs, const RefBounds& bounds, int depth) {
+    auto piece = std::make_unique<BvhPiece>();
+    piece->nodes.resize(1);
+    std::uint64_t evals = 0;
+    build(*piece, 0, refs, bounds, depth, evals);
+    evals_ += evals;
+    return piece;
+  }
+
+  std::uint64_t evals() const { return evals_; }
+
+ private:
+  void make_leaf(BvhPiece& piece, std::size_t slot, const std::vector<PrimRef>& refs, const Aabb& box) {
+    // A triangle split earlier may come back in two parts: reference it once.
+    const auto first = static_cast<std::uint32_t>(piece.prims.size());
+    for (const PrimRef& r : refs) piece.prims.push_back(r.prim);
+    std::sort(piece.prims.begin() + first, piece.prims.end());
+    piece.prims.erase(std::unique(piece.prims.begin() + first, piece.prims.end()), piece.prims.end());
+    piece.nodes[slot] = BvhNode::make_leaf(box, first, static_cast<std::uint32_t>(piece.prims.size() - first));
+  }
+
+  Aabb clip(const PrimRef& r, const Aabb& region) const {
+    return clip_triangle_bounds(tris_[r.prim], intersection(r.box, region));
+  }
+
+  SpatialSplit find_spatial_split(const std::vector<PrimRef>& refs, const Aabb& box, std::uint64_t& evals) const {
+    SpatialSplit best;
+    const int count = std::clamp(options_.bins, 2, kMaxSpatialBins);
+    const float parent_area = std::max(box.half_area(), std::numeric_limits<float>::min());
+    SpatialBin bins[kMaxSpatialBins];
+    Aabb right_box[kMaxSpatialBins];
+    for (int a = 0; a < 3; ++a) {
+      const float lo = box.lo[a], extent = box.hi[a] - box.lo[a];
+      if (!(extent > 0)) continue;
+      const float width = extent / static_cast<float>(count), inv = static_cast<float>(count) / extent;
+      for (int i = 0; i < count; ++i) bins[i] = {};
+      for (const PrimRef& r : refs) {
+        const int b0 = std::clamp(static_cast<int>((r.box.lo[a] - lo) * inv), 0, count - 1);
+        const int b1 = std::clamp(static_cast<int>((r.box.hi[a] - lo) * inv), b0, count - 1);
+        ++bins[b0].enter;
+        ++bins[b1].exit;
+        if (b0 == b1) {
+          bins[b0].box.extend(r.box);
+          continue;
+        }
+        for (int b = b0; b <= b1; ++b) {  // chop the reference into the bins it crosses
+          Aabb slab = r.box;
+          if (b > b0) slab.lo[a] = bin_plane(lo, width, b);
+          if (b < b1) slab.hi[a] = bin_plane(lo, width, b + 1);
+          bins[b].box.extend(clip(r, slab));
+        }
+      }
+      Aabb acc;
+      for (int i = count - 1; i > 0; --i) {
+        acc.extend(bins[i].box);
+        right_box[i] = acc;
+      }
+      Aabb left;
+      std::size_t n_left = 0, n_right = refs.size();
+      for (int i = 0; i < count - 1; ++i) {
+        left.extend(bins[i].box);
+        n_left += bins[i].enter;
+        n_right -= bins[i].exit;
+        if (n_left == 0 || n_right == 0) continue;
+        ++evals;
+        const float cost =
+            split_cost(options_, parent_area, left.half_area(), n_left, right_box[i + 1].half_area(), n_right);
+        if (cost < best.cost) {
+          best = {a, bin_plane(lo, width, i + 1), cost, left, right_box[i + 1], n_left, n_right};
+        }
+      }
+    }
+    return best;
+  }
+
+  // Distributes refs by the plane; false when one side would stay empty.
+  bool spatial_partition(const std::vector<PrimRef>& refs, const SpatialSplit& split, std::vector<PrimRef>& left,
+                         std::vector<PrimRef>& right) const {
+    const int a = split.axis;
+    const float p = split.plane;
+    Aabb left_box = split.left, right_box = split.right;
+    auto n_left = static_cast<float>(split.n_left), n_right = static_cast<float>(split.n_right);
+    left.reserve(split.n_left);
+    right.reserve(split.n_right);
+    for (const PrimRef& r : refs) {
+      if (r.box.hi[a] <= p) {
+        left.push_back(r);
+      } else if (r.box.lo[a] >= p) {
+        right.push_back(r);
+      } else {
+        const float both = left_box.half_area() * n_left + right_box.half_area() * n_right;
+        const float all_left = merge(left_box, r.box).half_area() * n_left + right_box.half_area() * (n_right - 1);
+        const float all_right = left_box.half_area() * (n_left - 1) + merge(right_box, r.box).half_area() * n_right;
+        if (all_left < both && all_left <= all_right) {
+          left.push_back(r);
+          left_box.extend(r.box);
+          n_right -= 1;
+        } else if (all_right < both) {
+          right.push_back(r);
+          right_box.extend(r.box);
+          n_left -= 1;
+        } else {
+          Aabb below = r.box, above = r.box;
+          below.hi[a] = p;
+          above.lo[a] = p;
+          const Aabb lb = clip(r, below), rb = clip(r, above);
+          if (!lb.empty()) left.push_back({lb, r.prim});
+          if (!rb.empty()) right.push_back({rb, r.prim});
+        }
+      }
+    }
+    return !left.empty() && !right.empty();
+  }
+
+  void build(BvhPiece& piece, std::size_t slot, std::vector<PrimRef>& refs, const RefBounds& bounds, int depth,
+             std::uint64_t& evals) {
+    const std::size_t n = refs.size();
+    if (n <= static_cast<std::size_t>(options_.min_leaf) || depth >= options_.max_depth)
+      return make_leaf(piece, slot, refs, bounds.box);
+
+    const ObjectSplit object = find_object_split(refs, bounds, options_, evals);
+    SpatialSplit spatial;
+    if (object.axis < 0 || intersection(object.left, object.right).half_area() > min_overlap_)
+      spatial = find_spatial_split(refs, bounds.box, evals);
+    const float best_cost = std::min(object.axis >= 0 ? object.cost : std::numeric_limits<float>::infinity(),
+                                     spatial.cost);
+    const float leaf_cost = options_.intersection_cost * static_cast<float>(n);
+    if (n <= static_cast<std::size_t>(options_.max_leaf) && !(best_cost < leaf_cost))
+      return make_leaf(piece, slot, refs, bounds.box);
+
+    std::vector<PrimRef> left, right;
+    RefBounds left_bounds, right_bounds;
+    int axis = 0;
+    bool done = false;
+    if (spatial.axis >= 0 && (object.axis < 0 || spatial.cost < object.cost)) {
+      done = spatial_partition(refs, spatial, left, right);
+      if (done) {
+        axis = spatial.axis;
+        left_bounds = ref_bounds(left);
+        right_bounds = ref_bounds(right);
+      } else {
+        left.clear();
+        right.clear();
+      }
+    }
+    if (!done) {
+      std::size_t n_left = n / 2;
+      if (object.axis >= 0) {
+        n_left = partition_refs(refs, CenterBins(bounds.centers, options_.bins), object, left_bounds, right_bounds);
+        axis = object.axis;
+      } else {
+        for (std::size_t i = 0; i < n; ++i) (i < n_left ? left_bounds : right_bounds).extend(refs[i]);
+      }
+      left.assign(refs.begin(), refs.begin() + static_cast<std::ptrdiff_t>(n_left));
+      right.assign(refs.begin() + static_cast<std::ptrdiff_t>(n_left), refs.end());
+    }
+    std::vector<PrimRef>().swap(refs);  // release the parent's references before recursing
+
+    if (slot == 0 && piece.nodes.size() == 1 && n >= kTaskRefs) {
+      piece.nodes[0] = BvhNode::make_interior(bounds.box, axis);
+      tbb::parallel_invoke(
+          [&] { piece.kids[0] = build_piece(std::move(left), left_bounds, depth + 1); },
+          [&] { piece.kids[1] = build_piece(std::move(right), right_bounds, depth + 1); });
+      return;
+    }
+    const auto pair = static_cast<std::uint32_t>(piece.nodes.size());
+    piece.nodes.resize(pair + 2);
+    piece.nodes[slot] = BvhNode::make_interior(bounds.box, axis, pair);
+    build(piece, pair, left, left_bounds, depth + 1, evals);
+    build(piece, pair + 1, right, right_bounds, depth + 1, evals);
+  }
+
+  std::span<const Triangle> tris_;
+  const BvhBuildOptions& options_;
+  float min_overlap_;
+  std::atomic<std::uint64_t> evals_{0};
+};
+
+}  // namespace
+
+BvhBuildResult build_bvh_sbvh(std::span<const Triangle> triangles, std::vector<PrimRef> refs,
+                              const BvhBuildOptions& options) {
+  const RefBounds bounds = ref_bounds(refs);
+  SbvhBuilder builder(triangles, options, bounds.box);
+  BvhBuildResult result;
+  result.root = builder.build_piece(std::move(refs), bounds, 0);
+  result.cost_evals = builder.evals();
+  return result;
+}
+
+}  // namespace splitray

@@ -1,0 +1,296 @@
+#include "splitray/accel/embree/embree_accel.hpp"
+
+#include <embree3/rtcore.h>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <mutex>
+#include <string>
+
+#include "splitray/core/errors.hpp"
+#include "splitray/core/parallel.hpp"
+#include "splitray/core/timer.hpp"
+
+namespace splitray {
+
+namespace {
+
+RTCBuildQuality parse_quality(const std::string& builder) {
+  if (builder == "low") return RTC_BUILD_QUALITY_LOW;
+  if (builder == "high") return RTC_BUILD_QUALITY_HIGH;
+  if (builder == "medium" || builder.empty()) return RTC_BUILD_QUALITY_MEDIUM;
+  throw Error("--builder", "'" + builder + "' is not a builder of --accel embree (known: medium, low, high)");
+}
+
+const char* error_name(RTCError code) {
+  switch (code) {
+    case RTC_ERROR_NONE: return "no error";
+    case RTC_ERROR_INVALID_ARGUMENT: return "invalid argument";
+    case RTC_ERROR_INVALID_OPERATION: return "invalid operation";
+    case RTC_ERROR_OUT_OF_MEMORY: return "out of memory";
+    case RTC_ERROR_UNSUPPORTED_CPU: return "unsupported CPU";
+    case RTC_ERROR_CANCELLED: return "cancelled";
+    default: return "unknown error";
+  }
+}
+
+// Embree reports errors through a callback from inside its C API, where throwing is not
+// allowed: the first message is recorded here and thrown as an Error after the call returns.
+struct DeviceState {
+  std::mutex mutex;
+  std::string error;
+  std::atomic<std::int64_t> bytes{0};  // current allocation, from the memory monitor
+};
+
+void on_error(void* user, RTCError code, const char* message) {
+  auto* state = static_cast<DeviceState*>(user);
+  const std::lock_guard lock(state->mutex);
+  if (state->error.empty())
+    state->error = std::string(error_name(code)) + (message ? std::string(": ") + message : "");
+}
+
+bool on_memory(void* user, ssize_t bytes, bool /*post*/) {
+  static_cast<DeviceState*>(user)->bytes += bytes;
+  return true;  // never veto an allocation
+}
+
+void fill_ray(const Ray& ray, RTCRay& out) {
+  out.org_x = ray.org.x;
+  out.org_y = ray.org.y;
+  out.org_z = ray.org.z;
+  out.tnear = ray.tmin;
+  out.dir_x = ray.dir.x;
+  out.dir_y = ray.dir.y;
+  out.dir_z = ray.dir.z;
+  out.time = 0;
+  out.tfar = ray.tmax;
+  out.mask = ~0u;
+  out.id = 0;
+  out.flags = 0;
+}
+
+Hit to_hit(const RTCRayHit& rayhit) {
+  Hit hit;
+  if (rayhit.hit.geomID == RTC_INVALID_GEOMETRY_ID) return hit;
+  hit.t = rayhit.ray.tfar;
+  hit.prim = rayhit.hit.primID;
+  hit.u = rayhit.hit.u;
+  hit.v = rayhit.hit.v;
+  return hit;
+}
+
+class EmbreeAccel final : public Accel {
+ public:
+  EmbreeAccel(std::span<const Triangle> triangles, const BuildConfig& config) {
+    const RTCBuildQuality quality = parse_quality(config.builder);
+    const int threads = config.threads > 0 ? config.threads : hardware_threads();
+    const std::string device_config = "threads=" + std::to_string(threads);
+    device_.reset(rtcNewDevice(device_config.c_str()));
+    if (!device_)
+      throw Error("embree", std::string("cannot create a device (") +
+                                error_name(rtcGetDeviceError(nullptr)) + ")");
+    rtcSetDeviceErrorFunction(device_.get(), on_error, &state_);
+    rtcSetDeviceMemoryMonitorFunction(device_.get(), on_memory, &state_);
+
+    Timer timer;
+    scene_.reset(rtcNewScene(device_.get()));
+    check("creating the scene");
+    rtcSetSceneBuildQuality(scene_.get(), quality);
+    rtcSetSceneFlags(scene_.get(), RTC_SCENE_FLAG_NONE);  // not ROBUST: Embree's defaults, the yardstick
+    const std::unique_ptr<RTCGeometryTy, decltype(&rtcReleaseGeometry)> owner(
+        rtcNewGeometry(device_.get(), RTC_GEOMETRY_TYPE_TRIANGLE), rtcReleaseGeometry);
+    check("creating the geometry");
+    RTCGeometry geometry = owner.get();
+    rtcSetGeometryBuildQuality(geometry, quality);
+    // A triangle soup: three vertices per triangle, indices 3i, 3i+1, 3i+2. Embree pads the
+    // buffers it allocates itself, as its 16-byte vertex loads need.
+    const std::size_t n = triangles.size();
+    if (3 * n > 0xffffffffu) throw Error("embree", "too many triangles for 32-bit vertex indices");
+    auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(
+        geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), 3 * n));
+    auto* indices = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
+        geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), n));
+    check("creating the triangle buffers");
+    for (std::size_t i = 0; i < n; ++i) {
+      for (int k = 0; k < 3; ++k) {
+        const Vec3 p = triangles[i].vertex(k);
+        float* out = vertices + 9 * i + 3 * k;
+        out[0] = p.x;
+        out[1] = p.y;
+        out[2] = p.z;
+        indices[3 * i + k] = static_cast<unsigned>(3 * i + k);
+      }
+    }
+    rtcCommitGeometry(geometry);
+    rtcAttachGeometry(scene_.get(), geometry);  // the scene keeps its own reference
+    rtcCommitScene(scene_.get());
+    check("building the scene");
+
+    stats_.accel = "embree";
+    stats_.builder = config.builder.empty() ? "medium" : config.builder;
+    stats_.prims = stats_.prim_refs = n;
+    stats_.build_ms = timer.ms();
+    stats_.bytes = static_cast<std::size_t>(std::max<std::int64_t>(0, state_.bytes.load()));
+    // Embree does not expose its tree: node counts and SAH cost stay unknown (0 / nullopt).
+  }
+
+  Hit intersect(const Ray& ray) const override {
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    RTCRayHit rayhit;
+    fill_ray(ray, rayhit.ray);
+    rayhit.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rayhit.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(scene_.get(), &context, &rayhit);
+    return to_hit(rayhit);
+  }
+
+  bool occluded(const Ray& ray) const override {
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    RTCRay r;
+    fill_ray(ray, r);
+    rtcOccluded1(scene_.get(), &context, &r);
+    return r.tfar < 0;  // Embree sets tfar to -inf on a hit
+  }
+
+  // Batched calls, measured on 2 AVX-512 cores (dragon, 1M rays): rays that share an origin
+  // (camera rays) go as one coherent stream (rtcIntersect1M, ~1.7x the packets), all others
+  // as packets of 8 (rtcIntersect8, ~1.05-1.3x rtcIntersect1; 16 was slower, and incoherent
+  // streams slower still).
+  void intersect(std::span<const Ray> rays, std::span<Hit> hits) const override {
+    parallel_chunks(rays.size(), kChunk, [&](std::size_t begin, std::size_t end) {
+      for (std::size_t i = begin; i < end; i += kChunk) {
+        const std::size_t m = std::min(kChunk, end - i);
+        if (same_origin(rays.subspan(i, m)))
+          intersect_stream(rays.subspan(i, m), hits.subspan(i, m));
+        else
+          for (std::size_t j = 0; j < m; j += kPacket)
+            intersect_packet(rays.subspan(i + j, std::min(kPacket, m - j)), hits.subspan(i + j));
+      }
+    });
+  }
+
+  void occluded(std::span<const Ray> rays, std::span<std::uint8_t> result) const override {
+    parallel_chunks(rays.size(), kChunk, [&](std::size_t begin, std::size_t end) {
+      for (std::size_t i = begin; i < end; i += kChunk) {
+        const std::size_t m = std::min(kChunk, end - i);
+        if (same_origin(rays.subspan(i, m)))
+          occluded_stream(rays.subspan(i, m), result.subspan(i, m));
+        else
+          for (std::size_t j = 0; j < m; j += kPacket)
+            occluded_packet(rays.subspan(i + j, std::min(kPacket, m - j)), result.subspan(i + j));
+      }
+    });
+  }
+
+  const AccelStats& stats() const override { return stats_; }
+
+ private:
+  static constexpr std::size_t kChunk = 256;  // rays per stream and per parallel task
+  static constexpr std::size_t kPacket = 8;
+
+  static bool same_origin(std::span<const Ray> rays) {
+    for (const Ray& ray : rays)
+      if (!(ray.org == rays.front().org)) return false;
+    return true;
+  }
+
+  void intersect_stream(std::span<const Ray> rays, std::span<Hit> hits) const {
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    std::array<RTCRayHit, kChunk> stream;
+    for (std::size_t j = 0; j < rays.size(); ++j) {
+      fill_ray(rays[j], stream[j].ray);
+      stream[j].hit.geomID = RTC_INVALID_GEOMETRY_ID;
+      stream[j].hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    }
+    rtcIntersect1M(scene_.get(), &context, stream.data(), static_cast<unsigned>(rays.size()),
+                   sizeof(RTCRayHit));
+    for (std::size_t j = 0; j < rays.size(); ++j) hits[j] = to_hit(stream[j]);
+  }
+
+  void occluded_stream(std::span<const Ray> rays, std::span<std::uint8_t> result) const {
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    std::array<RTCRay, kChunk> stream;
+    for (std::size_t j = 0; j < rays.size(); ++j) fill_ray(rays[j], stream[j]);
+    rtcOccluded1M(scene_.get(), &context, stream.data(), static_cast<unsigned>(rays.size()),
+                  sizeof(RTCRay));
+    for (std::size_t j = 0; j < rays.size(); ++j) result[j] = stream[j].tfar < 0 ? 1 : 0;
+  }
+
+  // Fills packet lanes [0, rays.size()) and marks the rest invalid (a copy of the last ray).
+  template <typename Packet>
+  static void fill_packet(std::span<const Ray> rays, int* valid, Packet& p) {
+    for (std::size_t j = 0; j < kPacket; ++j) {
+      valid[j] = j < rays.size() ? -1 : 0;
+      const Ray& ray = rays[std::min(j, rays.size() - 1)];
+      p.org_x[j] = ray.org.x;
+      p.org_y[j] = ray.org.y;
+      p.org_z[j] = ray.org.z;
+      p.tnear[j] = ray.tmin;
+      p.dir_x[j] = ray.dir.x;
+      p.dir_y[j] = ray.dir.y;
+      p.dir_z[j] = ray.dir.z;
+      p.time[j] = 0;
+      p.tfar[j] = ray.tmax;
+      p.mask[j] = ~0u;
+      p.id[j] = static_cast<unsigned>(j);
+      p.flags[j] = 0;
+    }
+  }
+
+  void intersect_packet(std::span<const Ray> rays, std::span<Hit> hits) const {
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    alignas(32) int valid[kPacket];
+    RTCRayHit8 packet;
+    fill_packet(rays, valid, packet.ray);
+    for (std::size_t j = 0; j < kPacket; ++j) {
+      packet.hit.geomID[j] = RTC_INVALID_GEOMETRY_ID;
+      packet.hit.instID[0][j] = RTC_INVALID_GEOMETRY_ID;
+    }
+    rtcIntersect8(valid, scene_.get(), &context, &packet);
+    for (std::size_t j = 0; j < rays.size(); ++j) {
+      Hit& hit = hits[j];
+      hit = Hit{};
+      if (packet.hit.geomID[j] == RTC_INVALID_GEOMETRY_ID) continue;
+      hit.t = packet.ray.tfar[j];
+      hit.prim = packet.hit.primID[j];
+      hit.u = packet.hit.u[j];
+      hit.v = packet.hit.v[j];
+    }
+  }
+
+  void occluded_packet(std::span<const Ray> rays, std::span<std::uint8_t> result) const {
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    alignas(32) int valid[kPacket];
+    RTCRay8 packet;
+    fill_packet(rays, valid, packet);
+    rtcOccluded8(valid, scene_.get(), &context, &packet);
+    for (std::size_t j = 0; j < rays.size(); ++j) result[j] = packet.tfar[j] < 0 ? 1 : 0;
+  }
+
+  void check(const char* what) {
+    const std::lock_guard lock(state_.mutex);
+    if (!state_.error.empty()) throw Error("embree", std::string(what) + ": " + state_.error);
+  }
+
+  DeviceState state_;  // first: outlives the device whose callbacks use it
+  std::unique_ptr<RTCDeviceTy, decltype(&rtcReleaseDevice)> device_{nullptr, rtcReleaseDevice};
+  std::unique_ptr<RTCSceneTy, decltype(&rtcReleaseScene)> scene_{nullptr, rtcReleaseScene};
+  AccelStats stats_;
+};
+
+}  // namespace
+
+std::unique_ptr<Accel> make_embree(std::span<const Triangle> triangles, const BuildConfig& config) {
+  return std::make_unique<EmbreeAccel>(triangles, config);
+}
+
+}  // namespace splitray

@@ -1,0 +1,211 @@
+#include "splitray/accel/kd/binned_split.hpp"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <array>
+#include <limits>
+#include <vector>
+
+#include "splitray/accel/kd/binned_clip.hpp"
+#include "splitray/accel/kd/golden_search.hpp"  // KdAxisCost
+
+namespace splitray {
+
+namespace {
+
+constexpr std::size_t kChunk = 8192;  // primitives per parallel chunk
+constexpr int kStackBins = 256;       // histograms of up to this many bins live on the stack
+
+struct AxisBins {
+  float lo, scale;
+  int bins;
+  int operator()(float v) const {
+    const int b = static_cast<int>((v - lo) * scale);
+    return std::clamp(b, 0, bins - 1);
+  }
+};
+
+// Histograms [axis][lo / hi][bins] of the bins of the primitives' lower and upper bounds.
+void bin_prims(std::span<const PrimRef> prims, const AxisBins* axes, const bool* active, std::uint32_t* hist,
+               std::size_t bins) {
+  for (int a = 0; a < 3; ++a) {
+    if (!active[a]) continue;
+    std::uint32_t* h_lo = hist + 2 * a * bins;
+    std::uint32_t* h_hi = h_lo + bins;
+    const AxisBins bin = axes[a];
+    for (const PrimRef& r : prims) {
+      ++h_lo[bin(r.bounds.lo[a])];
+      ++h_hi[bin(r.bounds.hi[a])];
+    }
+  }
+}
+
+enum Side : std::uint8_t { kBelow = 1, kAbove = 2, kBoth = 3 };
+
+Side side_of(const Aabb& b, int axis, float position, bool planar_below) {
+  const float lo = b.lo[axis], hi = b.hi[axis];
+  if (lo == position && hi == position) return planar_below ? kBelow : kAbove;
+  if (lo < position) return hi > position ? kBoth : kBelow;
+  return kAbove;
+}
+
+void count_sides(std::span<const PrimRef> prims, const BinnedSplit& split, std::size_t& below, std::size_t& above) {
+  below = above = 0;
+  for (const PrimRef& r : prims) {
+    const Side s = side_of(r.bounds, split.axis, split.position, split.planar_below);
+    below += (s & kBelow) != 0;
+    above += (s & kAbove) != 0;
+  }
+}
+
+}  // namespace
+
+BinnedSplit find_binned_split(std::span<const PrimRef> prims, const Aabb& cell, const Aabb& content,
+                              const KdSplitCost& cost, int bins, bool parallel) {
+  bins = std::max(bins, 1);
+  const std::size_t stride = static_cast<std::size_t>(bins);
+  std::array<std::uint32_t, 6 * kStackBins> stack_hist;
+  std::vector<std::uint32_t> heap_hist;
+  std::uint32_t* hist = stack_hist.data();
+  if (bins > kStackBins) {
+    heap_hist.resize(6 * stride);
+    hist = heap_hist.data();
+  }
+  std::fill(hist, hist + 6 * stride, 0u);
+
+  AxisBins axes[3];
+  bool active[3];
+  for (int a = 0; a < 3; ++a) {
+    const float lo = content.lo[a], hi = content.hi[a];
+    active[a] = lo < hi && cell.lo[a] < cell.hi[a];
+    axes[a] = {lo, active[a] ? static_cast<float>(bins) / (hi - lo) : 0.0f, bins};
+  }
+  if (parallel && prims.size() > kChunk) {
+    const std::size_t chunks = (prims.size() + kChunk - 1) / kChunk;
+    std::vector<std::uint32_t> partial(chunks * 6 * stride, 0u);
+    tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+      const std::size_t begin = c * kChunk, end = std::min(prims.size(), begin + kChunk);
+      bin_prims(prims.subspan(begin, end - begin), axes, active, partial.data() + c * 6 * stride, stride);
+    });
+    for (std::size_t c = 0; c < chunks; ++c)  // integer sums: the same in any order
+      for (std::size_t i = 0; i < 6 * stride; ++i) hist[i] += partial[c * 6 * stride + i];
+  } else {
+    bin_prims(prims, axes, active, hist, stride);
+  }
+
+  // Sweep of the planes at the bin boundaries k = 0..bins. Inside, the counts are the
+  // bins' (exact up to bounds within rounding of a boundary). The outer two are the
+  // empty-space cuts at the content's bounds, exact with in-plane primitives put on the
+  // content's side. A content flat on an axis offers its plane, once per side.
+  BinnedSplit best;
+  best.cost = std::numeric_limits<double>::infinity();
+  const std::size_t n = prims.size();
+  const auto consider = [&](int axis, float position, std::size_t below, std::size_t above, bool planar_below,
+                            const KdAxisCost& axis_cost) {
+    if (!(position > cell.lo[axis] && position < cell.hi[axis])) return;
+    const double c = axis_cost(position, below, above);
+    ++best.evals;
+    if (c < best.cost) {
+      best.cost = c;
+      best.axis = axis;
+      best.position = position;
+      best.planar_below = planar_below;
+    }
+  };
+  for (int a = 0; a < 3; ++a) {
+    const float lo = content.lo[a], hi = content.hi[a];
+    if (!(cell.lo[a] < cell.hi[a]) || !(lo <= hi)) continue;
+    const KdAxisCost axis_cost(cost, cell, a);
+    consider(a, lo, 0, n, false, axis_cost);
+    if (active[a]) {
+      const std::uint32_t* h_lo = hist + 2 * a * stride;
+      const std::uint32_t* h_hi = h_lo + stride;
+      const float width = (hi - lo) / static_cast<float>(bins);
+      std::size_t below = 0, above = n;
+      for (int k = 1; k < bins; ++k) {
+        below += h_lo[k - 1];
+        above -= h_hi[k - 1];
+        const float position = lo + static_cast<float>(k) * width;
+        if (position > lo && position < hi) consider(a, position, below, above, true, axis_cost);
+      }
+    }
+    consider(a, hi, n, 0, true, axis_cost);
+  }
+  if (best.axis < 0) return best;
+
+  // The chosen plane's exact counts (the children's sizes) and exact cost.
+  if (parallel && n > kChunk) {
+    const std::size_t chunks = (n + kChunk - 1) / kChunk;
+    std::vector<std::size_t> counts(2 * chunks);
+    tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+      const std::size_t begin = c * kChunk, end = std::min(n, begin + kChunk);
+      count_sides(prims.subspan(begin, end - begin), best, counts[2 * c], counts[2 * c + 1]);
+    });
+    for (std::size_t c = 0; c < chunks; ++c) best.n_below += counts[2 * c], best.n_above += counts[2 * c + 1];
+  } else {
+    count_sides(prims, best, best.n_below, best.n_above);
+  }
+  best.cost = KdAxisCost(cost, cell, best.axis)(best.position, best.n_below, best.n_above);
+  ++best.evals;
+  return best;
+}
+
+void partition_binned(std::span<const PrimRef> prims, std::span<const Triangle> triangles, const Aabb& cell,
+                      const BinnedSplit& split, std::span<PrimRef> below, std::span<PrimRef> above,
+                      Aabb& below_content, Aabb& above_content, bool parallel) {
+  const int axis = split.axis;
+  const float position = split.position;
+  const bool planar_below = split.planar_below;
+  // Writes chunk [begin, end) from output offsets (ob, oa); returns the contents.
+  const auto write = [&](std::size_t begin, std::size_t end, std::size_t ob, std::size_t oa, Aabb& cb, Aabb& ca) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const PrimRef& r = prims[i];
+      switch (side_of(r.bounds, axis, position, planar_below)) {
+        case kBelow:
+          below[ob++] = r;
+          cb.extend(r.bounds);
+          break;
+        case kAbove:
+          above[oa++] = r;
+          ca.extend(r.bounds);
+          break;
+        case kBoth: {
+          PrimRef& b = below[ob++];
+          PrimRef& a = above[oa++];
+          b.id = a.id = r.id;
+          clip_triangle_split(triangles[r.id], cell, axis, position, b.bounds, a.bounds);
+          cb.extend(b.bounds);
+          ca.extend(a.bounds);
+          break;
+        }
+      }
+    }
+  };
+  below_content = above_content = Aabb{};
+  if (!parallel || prims.size() <= kChunk) {
+    write(0, prims.size(), 0, 0, below_content, above_content);
+    return;
+  }
+  const std::size_t chunks = (prims.size() + kChunk - 1) / kChunk;
+  std::vector<std::size_t> offsets(2 * (chunks + 1), 0);
+  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+    const std::size_t begin = c * kChunk, end = std::min(prims.size(), begin + kChunk);
+    count_sides(prims.subspan(begin, end - begin), split, offsets[2 * (c + 1)], offsets[2 * (c + 1) + 1]);
+  });
+  for (std::size_t c = 0; c < chunks; ++c) {
+    offsets[2 * (c + 1)] += offsets[2 * c];
+    offsets[2 * (c + 1) + 1] += offsets[2 * c + 1];
+  }
+  std::vector<Aabb> contents(2 * chunks);
+  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+    const std::size_t begin = c * kChunk, end = std::min(prims.size(), begin + kChunk);
+    write(begin, end, offsets[2 * c], offsets[2 * c + 1], contents[2 * c], contents[2 * c + 1]);
+  });
+  for (std::size_t c = 0; c < chunks; ++c) {  // min / max: the same in any order
+    below_content.extend(contents[2 * c]);
+    above_content.extend(contents[2 * c + 1]);
+  }
+}
+
+}  // namespace splitray

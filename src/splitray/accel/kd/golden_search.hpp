@@ -1,0 +1,111 @@
+#pragma once
+// One-dimensional search for the SAH-optimal split position on one axis of a kd node, by
+// golden-section search combined with parabolic interpolation (Brent), as in Hussain &
+// Grahn 2007 and paper 000 §5. The left/right primitive counts at a probe position come
+// in O(log n) from binary searches in the node's sorted event positions.
+//
+// The SAH over the split position is piecewise linear with jumps at the events (the
+// primitives' clipped bounds), and its minimum is always attained at an event: with the
+// counting below (start < p below, end > p above) the cost at an event is no larger than
+// its limits on either side. So every search ends by "snapping" its best probe to the two
+// neighbouring events, and a tiny axis is simply scanned event by event.
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <optional>
+#include <span>
+
+#include "splitray/accel/kd/kd_sah.hpp"
+#include "splitray/core/aabb.hpp"
+
+namespace splitray {
+
+// KdSplitCost::split for one cell and axis with the per-cell terms computed once: the same
+// operations in the same order, so bit for bit the same cost (sweeps evaluate it a lot).
+class KdAxisCost {
+ public:
+  KdAxisCost(const KdSplitCost& cost, const Aabb& box, int axis) : cost_(cost) {
+    const Vec3 e = box.extent();
+    const int a1 = axis == 2 ? 0 : axis + 1, a2 = a1 == 2 ? 0 : a1 + 1;
+    inv_area_ = 1.0 / box.half_area();
+    cap_ = static_cast<double>(e[a1]) * e[a2];
+    ring_ = static_cast<double>(e[a1]) + e[a2];
+    lo_ = box.lo[axis];
+    hi_ = box.hi[axis];
+  }
+
+  double operator()(float position, std::size_t n_below, std::size_t n_above) const {
+    const double below = position - lo_, above = hi_ - position;
+    const double p_below = (cap_ + below * ring_) * inv_area_;
+    const double p_above = (cap_ + above * ring_) * inv_area_;
+    const double lambda = (n_below == 0 || n_above == 0) ? cost_.empty_factor : 1.0;
+    return lambda * (cost_.traversal + cost_.intersection * (p_below * static_cast<double>(n_below) +
+                                                             p_above * static_cast<double>(n_above)));
+  }
+
+ private:
+  const KdSplitCost& cost_;
+  double inv_area_, cap_, ring_;
+  float lo_, hi_;
+};
+
+// The sorted events of a node's primitives on one axis (clipped bounds, ascending).
+struct AxisEvents {
+  std::span<const float> starts;  // lo of the primitives with lo < hi on this axis
+  std::span<const float> ends;    // hi of those primitives
+  std::span<const float> planes;  // position of the primitives with lo == hi (in-plane)
+
+  std::size_t prims() const { return starts.size() + planes.size(); }
+  std::size_t events() const { return starts.size() + ends.size() + planes.size(); }
+};
+
+// A split position and what it costs. Primitives lying in the plane go below when
+// planar_below, else above; every other primitive goes where its bounds are (both sides
+// when it straddles the plane).
+struct SplitCandidate {
+  float position = 0;
+  double cost = std::numeric_limits<double>::infinity();
+  std::size_t n_below = 0, n_above = 0;
+  bool planar_below = true;
+
+  bool valid() const { return cost < std::numeric_limits<double>::infinity(); }
+};
+
+struct GoldenSearchOptions {
+  int samples = 8;                  // coarse uniform samples that bracket the minimum (no start given)
+  double tolerance = 2e-3;          // final bracket width, relative to the searched interval
+  int max_iterations = 40;          // Brent iterations at most
+  std::size_t exhaustive_events = 128;  // axes with at most this many events are swept fully
+};
+
+struct GoldenSearchResult {
+  SplitCandidate best;      // invalid when no position strictly inside the cell was allowed
+  std::uint32_t evals = 0;  // SAH cost evaluations made
+  // The best lies at or beyond lo or hi (snapping to an event may leave the bracket) where
+  // that is not the cell's face: the caller may widen the search.
+  bool at_bracket_edge = false;
+};
+
+// SAH cost of splitting `cell` at `position` (strictly inside the cell) on `axis`. When
+// primitives lie in the plane both placements are costed and the cheaper kept (ties: below).
+// Adds the number of cost evaluations (1 or 2) to `evals`.
+SplitCandidate evaluate_split(const AxisEvents& events, const Aabb& cell, int axis,
+                              const KdSplitCost& cost, float position, std::uint32_t& evals);
+
+// The best split position on `axis` within [lo, hi] ∩ open cell interval. Without `start`:
+// coarse samples (plus the two empty-space cuts at the content's bounds) bracket the
+// minimum, Brent refines inside the bracket around the best sample. With `start` (e.g. a
+// position predicted from the previous frame of an animation, issue #4): Brent starts at
+// `start` inside [lo, hi] directly, and at_bracket_edge tells whether the bracket was too
+// narrow. Either way the best probe is snapped to its neighbouring events.
+GoldenSearchResult golden_search_axis(const AxisEvents& events, const Aabb& cell, int axis,
+                                      const KdSplitCost& cost, float lo, float hi,
+                                      std::optional<float> start = std::nullopt,
+                                      const GoldenSearchOptions& options = {});
+
+// Reference: the cost at every distinct event position in [lo, hi] inside the cell, the
+// exact minimum (ties: lowest position). Used for tiny axes and by the tests.
+GoldenSearchResult exhaustive_search_axis(const AxisEvents& events, const Aabb& cell, int axis,
+                                          const KdSplitCost& cost, float lo, float hi);
+
+}  // namespace splitray

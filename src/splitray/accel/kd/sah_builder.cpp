@@ -1,0 +1,285 @@
+// Exact SAH kd-tree in O(N log N) (Wald & Havran 2006, "On building fast kd-trees for ray
+// tracing, and on doing that in O(N log N)"): the start/end/planar events of every triangle
+// are sorted once per axis; each node sweeps its sorted events to find the cheapest plane,
+// classifies its triangles left/right/both and splits the event lists in linear time.
+// Triangles that straddle the plane are clipped to each child cell (perfect splits) and only
+// their new events are sorted and merged in. Subtrees build as TBB tasks; every decision
+// depends on the data only, so the tree is the same for any thread count.
+#include <tbb/parallel_invoke.h>
+#include <tbb/task_group.h>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <limits>
+
+#include "splitray/accel/kd/clip.hpp"
+#include "splitray/accel/kd/kd_build.hpp"
+#include "splitray/accel/kd/kd_sah.hpp"
+#include "splitray/core/errors.hpp"
+
+namespace splitray {
+
+namespace {
+
+// Event types in the sweep order at one position: triangles ending there leave the right side
+// before the plane is evaluated, triangles starting there join the left side after it.
+enum : std::uint32_t { kEnd = 0, kPlanar = 1, kStart = 2 };
+constexpr std::uint32_t kIndexBits = 30;
+constexpr std::uint32_t kIndexMask = (1u << kIndexBits) - 1;
+
+struct Event {
+  float pos;
+  std::uint32_t key;  // type << 30 | index of the triangle in its node's list
+
+  std::uint32_t type() const { return key >> kIndexBits; }
+  std::uint32_t tri() const { return key & kIndexMask; }
+  // Total order (position, type, triangle), so sorting is deterministic.
+  friend bool operator<(const Event& a, const Event& b) {
+    return a.pos < b.pos || (a.pos == b.pos && a.key < b.key);
+  }
+};
+
+using Events = std::array<std::vector<Event>, 3>;
+
+struct Node {
+  Aabb box;
+  std::vector<std::uint32_t> tris;  // triangle ids; events refer to positions in this list
+  Events events;                    // per axis, sorted
+};
+
+void add_events(const Aabb& b, std::uint32_t index, Events& out) {
+  for (int axis = 0; axis < 3; ++axis) {
+    if (b.lo[axis] == b.hi[axis]) {
+      out[axis].push_back({b.lo[axis], (kPlanar << kIndexBits) | index});
+    } else {
+      out[axis].push_back({b.lo[axis], (kStart << kIndexBits) | index});
+      out[axis].push_back({b.hi[axis], (kEnd << kIndexBits) | index});
+    }
+  }
+}
+
+struct Split {
+  double cost = std::numeric_limits<double>::infinity();
+  int axis = -1;
+  float pos = 0;
+  bool planar_below = true;  // where the triangles lying in the plane go
+};
+
+enum Side : std::uint8_t { kBoth = 0, kBelow = 1, kAbove = 2 };
+
+class SahBuilder {
+ public:
+  SahBuilder(std::span<const Triangle> triangles, const BuildConfig& config)
+      : triangles_(triangles),
+        sah_(config),
+        max_depth_(kd_max_depth(config, triangles.size())),
+        max_leaf_prims_(static_cast<std::size_t>(std::max(config.max_leaf_prims, 0))) {}
+
+  std::unique_ptr<KdBuildNode> build(Node node, int depth) {
+    const std::size_t n = node.tris.size();
+    if (n <= max_leaf_prims_ || depth >= max_depth_) return make_leaf(node);
+    const Split split = find_split(node);
+    if (!(split.cost < sah_.leaf(n))) return make_leaf(node);
+
+    Node below, above;
+    partition(node, split, below, above);
+    node = Node{};  // free the parent's lists before descending
+
+    auto result = std::make_unique<KdBuildNode>();
+    result->axis = split.axis;
+    result->split = split.pos;
+    if (n >= kParallelPrims) {
+      tbb::task_group group;
+      group.run([&] { result->below = build(std::move(below), depth + 1); });
+      result->above = build(std::move(above), depth + 1);
+      group.wait();
+    } else {
+      result->below = build(std::move(below), depth + 1);
+      result->above = build(std::move(above), depth + 1);
+    }
+    return result;
+  }
+
+  std::uint64_t cost_evals() const { return cost_evals_.load(); }
+
+ private:
+  static constexpr std::size_t kParallelPrims = 2048;  // smaller subtrees build in their task
+
+  static std::unique_ptr<KdBuildNode> make_leaf(Node& node) {
+    auto leaf = std::make_unique<KdBuildNode>();
+    leaf->prims = std::move(node.tris);
+    std::sort(leaf->prims.begin(), leaf->prims.end());
+    return leaf;
+  }
+
+  // The sweep: for every distinct event position, the counts below/in/above the plane are
+  // known from the events before it; planar triangles are tried on both sides.
+  Split find_split(const Node& node) {
+    const std::size_t n = node.tris.size();
+    Split best;
+    std::uint64_t evals = 0;
+    for (int axis = 0; axis < 3; ++axis) {
+      const std::vector<Event>& events = node.events[axis];
+      const KdSplitCost::Axis cost(sah_, node.box, axis);
+      const float lo = node.box.lo[axis], hi = node.box.hi[axis];
+      const Event* e = events.data();
+      const Event* const end = e + events.size();
+      std::size_t n_below = 0, n_above = n;
+      while (e != end) {
+        const float pos = e->pos;
+        std::size_t ends = 0, planars = 0, starts = 0;
+        for (; e != end && e->pos == pos && e->type() == kEnd; ++e) ++ends;
+        for (; e != end && e->pos == pos && e->type() == kPlanar; ++e) ++planars;
+        for (; e != end && e->pos == pos && e->type() == kStart; ++e) ++starts;
+        n_above -= planars + ends;
+        if (pos > lo && pos < hi) {  // a plane on the cell's boundary cuts off nothing
+          const double cost_below = cost(pos, n_below + planars, n_above);
+          ++evals;
+          if (cost_below < best.cost) best = {cost_below, axis, pos, true};
+          if (planars > 0) {
+            const double cost_above = cost(pos, n_below, n_above + planars);
+            ++evals;
+            if (cost_above < best.cost) best = {cost_above, axis, pos, false};
+          }
+        }
+        n_below += starts + planars;
+      }
+    }
+    cost_evals_.fetch_add(evals, std::memory_order_relaxed);
+    return best;
+  }
+
+  // Per-thread buffers of partition(), which never yields to another task while using them.
+  struct Scratch {
+    std::vector<std::uint8_t> side;
+    std::vector<std::uint32_t> below_index, above_index, straddling;
+    Events fresh_below, fresh_above;
+  };
+
+  void partition(const Node& node, const Split& split, Node& below, Node& above) const {
+    thread_local Scratch scratch;
+    const std::size_t n = node.tris.size();
+    std::vector<std::uint8_t>& side = scratch.side;
+    side.assign(n, kBoth);
+    for (const Event& e : node.events[split.axis]) {
+      const std::uint32_t type = e.type();
+      if (type == kEnd && e.pos <= split.pos) {
+        side[e.tri()] = kBelow;
+      } else if (type == kStart && e.pos >= split.pos) {
+        side[e.tri()] = kAbove;
+      } else if (type == kPlanar) {
+        const bool go_below = e.pos < split.pos || (e.pos == split.pos && split.planar_below);
+        side[e.tri()] = go_below ? kBelow : kAbove;
+      }
+    }
+
+    below.box = above.box = node.box;
+    below.box.hi[split.axis] = split.pos;
+    above.box.lo[split.axis] = split.pos;
+
+    // New positions in the children's lists, in the parent's order.
+    std::vector<std::uint32_t>& below_index = scratch.below_index;
+    std::vector<std::uint32_t>& above_index = scratch.above_index;
+    std::vector<std::uint32_t>& straddling = scratch.straddling;
+    below_index.resize(n);
+    above_index.resize(n);
+    straddling.clear();
+    below.tris.reserve(n);
+    above.tris.reserve(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      if (side[i] != kAbove) {
+        below_index[i] = static_cast<std::uint32_t>(below.tris.size());
+        below.tris.push_back(node.tris[i]);
+      }
+      if (side[i] != kBelow) {
+        above_index[i] = static_cast<std::uint32_t>(above.tris.size());
+        above.tris.push_back(node.tris[i]);
+      }
+      if (side[i] == kBoth) straddling.push_back(static_cast<std::uint32_t>(i));
+    }
+
+    // Events of one-sided triangles stay valid and sorted: filter them in linear time. A child
+    // never has more events on an axis than its parent (clipping only shrinks a triangle's
+    // extent), so the children's arrays are sized once and the new events merged in place.
+    for (int axis = 0; axis < 3; ++axis) {
+      const std::vector<Event>& events = node.events[axis];
+      below.events[axis].resize(events.size());
+      above.events[axis].resize(events.size());
+      Event* out_below = below.events[axis].data();
+      Event* out_above = above.events[axis].data();
+      for (const Event& e : events) {
+        const std::uint32_t i = e.tri(), type = e.type() << kIndexBits;
+        if (side[i] == kBelow) *out_below++ = {e.pos, type | below_index[i]};
+        else if (side[i] == kAbove) *out_above++ = {e.pos, type | above_index[i]};
+      }
+      below.events[axis].resize(static_cast<std::size_t>(out_below - below.events[axis].data()));
+      above.events[axis].resize(static_cast<std::size_t>(out_above - above.events[axis].data()));
+    }
+    if (straddling.empty()) return;
+
+    // Straddling triangles get new events from their part in each child, sorted and merged.
+    for (int axis = 0; axis < 3; ++axis) {
+      scratch.fresh_below[axis].clear();
+      scratch.fresh_above[axis].clear();
+    }
+    for (const std::uint32_t i : straddling) {
+      const Triangle& tri = triangles_[node.tris[i]];
+      add_events(clip_triangle_bounds(tri, below.box), below_index[i], scratch.fresh_below);
+      add_events(clip_triangle_bounds(tri, above.box), above_index[i], scratch.fresh_above);
+    }
+    merge_events(scratch.fresh_below, below.events);
+    merge_events(scratch.fresh_above, above.events);
+  }
+
+  // Merges sorted `fresh` into sorted `events`, from the back, in place.
+  static void merge_events(Events& fresh, Events& events) {
+    for (int axis = 0; axis < 3; ++axis) {
+      std::vector<Event>& add = fresh[axis];
+      std::vector<Event>& into = events[axis];
+      std::sort(add.begin(), add.end());
+      std::size_t i = into.size(), j = add.size(), w = i + j;
+      into.resize(w);
+      while (j > 0) {
+        if (i > 0 && add[j - 1] < into[i - 1]) into[--w] = into[--i];
+        else into[--w] = add[--j];
+      }
+    }
+  }
+
+  std::span<const Triangle> triangles_;
+  KdSplitCost sah_;
+  int max_depth_;
+  std::size_t max_leaf_prims_;
+  std::atomic<std::uint64_t> cost_evals_{0};
+};
+
+}  // namespace
+
+KdBuildResult build_kd_sah(std::span<const Triangle> triangles, const Aabb& bounds,
+                           const BuildConfig& config) {
+  if (triangles.size() > kIndexMask)
+    throw Error("--builder sah", "too many triangles (" + std::to_string(triangles.size()) + ")");
+  Node root;
+  root.box = bounds;
+  root.tris.reserve(triangles.size());
+  for (std::size_t i = 0; i < triangles.size(); ++i) {
+    Aabb b = triangles[i].bounds();
+    if (!(bounds.contains(b.lo) && bounds.contains(b.hi))) b = clip_triangle_bounds(triangles[i], bounds);
+    if (b.empty()) continue;  // outside the root cell
+    const auto index = static_cast<std::uint32_t>(root.tris.size());
+    root.tris.push_back(static_cast<std::uint32_t>(i));
+    add_events(b, index, root.events);
+  }
+  tbb::parallel_invoke([&] { std::sort(root.events[0].begin(), root.events[0].end()); },
+                       [&] { std::sort(root.events[1].begin(), root.events[1].end()); },
+                       [&] { std::sort(root.events[2].begin(), root.events[2].end()); });
+
+  SahBuilder builder(triangles, config);
+  KdBuildResult result;
+  result.root = builder.build(std::move(root), 0);
+  result.cost_evals = builder.cost_evals();
+  return result;
+}
+
+}  // namespace splitray

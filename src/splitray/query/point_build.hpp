@@ -1,0 +1,26 @@
+#pragma once
+// The point kd-tree builder shared by the vvh, sah and median split choosers (internal).
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "splitray/query/point_tree.hpp"
+
+namespace splitray {
+
+struct PointBuildOutput {
+  std::vector<PointNode> nodes;  // depth first; node 0 is the root
+  std::vector<std::uint32_t> permutation;
+};
+
+// `bounds` is the points' bounding box (the root cell); `radius` the resolved VVH expansion.
+// Throws Error on an unknown builder name.
+PointBuildOutput build_point_tree(std::span<const Vec3> points, const Aabb& bounds,
+                                  const PointTreeConfig& config, float radius);
+
+// Paper 003 Eq. 4 + 6 evaluated on a finished tree: every node weighted by the volume of its
+// cell (expanded by `radius`) relative to the root's; interior nodes cost c_t, leaves c_i N.
+double vvh_tree_cost(std::span<const PointNode> nodes, const Aabb& bounds,
+                     const PointTreeConfig& config, float radius);
+
+}  // namespace splitray

@@ -1,0 +1,269 @@
+// BVH builders (binned, sbvh, Embree's custom builder), refit, and the kd-top -> BVH
+// conversion: every answer must be exactly brute's (hierarchy_oracle.hpp).
+#include <cstring>
+
+#include "hierarchy_oracle.hpp"
+#include "splitray/accel/bvh/bvh.hpp"
+#include "splitray/accel/bvh/kd_top_bvh.hpp"
+#include "splitray/core/errors.hpp"
+#include "splitray/core/parallel.hpp"
+
+namespace splitray::test {
+namespace {
+
+const char* const kHorse = "horse/horse.obj.gz";
+
+void check_every_builder(const Reference& ref, const std::string& mesh) {
+  for (const std::string builder : {"binned", "sbvh"}) {
+    BuildConfig config;
+    config.builder = builder;
+    const auto accel = make_accel("bvh", ref.tris, config);
+    expect_same_answers(ref.brute, answers_of(*accel, ref.rays), ref.rays, mesh + " bvh " + builder);
+  }
+  const Bvh embree = Bvh::build(ref.tris, "embree", BvhBuildOptions{});
+  expect_same_answers(ref.brute, answers_of_structure(embree, ref.rays), ref.rays, mesh + " bvh embree");
+}
+
+TEST(Bvh, EveryBuilderMatchesBruteOnHorse) { check_every_builder(reference(vendored_file(kHorse)), "horse"); }
+
+TEST(Bvh, EveryBuilderMatchesBruteOnSibenik) {
+  SPLITRAY_REQUIRE_SHARED(path, "static_sibenik/sibenik.obj");
+  check_every_builder(reference(path, 20000), "sibenik");
+}
+
+TEST(Bvh, EveryBuilderMatchesBruteOnLion) {
+  SPLITRAY_REQUIRE_SHARED(path, "static_sumner_cat_lion_poses/lion-poses/lion-reference.obj.gz");
+  check_every_builder(reference(path), "lion");
+}
+
+TEST(Bvh, EveryBuilderMatchesBruteOnCornellBox) {  // axis-aligned walls: rays in their planes
+  SPLITRAY_REQUIRE_SHARED(path, "static_cornell_box/cornell_box.obj");
+  check_every_builder(reference(path, 20000), "cornell box");
+}
+
+std::vector<Triangle> grid_in_plane(int n) {  // an axis-aligned plane of 2 n^2 triangles
+  std::vector<Triangle> tris;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const auto x0 = static_cast<float>(i), x1 = x0 + 1, y0 = static_cast<float>(j), y1 = y0 + 1;
+      tris.push_back({{x0, y0, 2}, {x1, y0, 2}, {x1, y1, 2}});
+      tris.push_back({{x0, y0, 2}, {x1, y1, 2}, {x0, y1, 2}});
+    }
+  return tris;
+}
+
+TEST(Bvh, DegenerateInputsMatchBrute) {
+  std::vector<std::pair<std::string, std::vector<Triangle>>> cases;
+  cases.push_back({"one triangle", {{{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}}});
+  cases.push_back({"plane grid", grid_in_plane(24)});
+  std::vector<Triangle> same(300, Triangle{{0, 0, 0}, {1, 0, 0}, {0, 1, 1}});  // coincident centres
+  same.push_back({{5, 5, 5}, {6, 5, 5}, {5, 6, 5}});
+  cases.push_back({"300 identical", same});
+  std::vector<Triangle> slivers = grid_in_plane(8);
+  for (int i = 0; i < 50; ++i) {  // zero-area triangles (segments and points) among real ones
+    const auto f = static_cast<float>(i) * 0.1f;
+    slivers.push_back({{f, 0, 2}, {f + 1, 1, 2}, {f + 2, 2, 2}});
+    slivers.push_back({{f, f, 2}, {f, f, 2}, {f, f, 2}});
+  }
+  cases.push_back({"slivers", slivers});
+  for (const auto& [name, tris] : cases) {
+    const std::vector<Ray> rays = hard_rays(tris, 4000, 7);
+    const Answers brute = answers_of(*make_brute(tris, {}), rays);
+    for (const std::string builder : {"binned", "sbvh", "embree"}) {
+      const Bvh bvh = Bvh::build(tris, builder, BvhBuildOptions{});
+      const Answers got = answers_of_structure(bvh, rays);
+      for (std::size_t i = 0; i < rays.size(); ++i) {
+        ASSERT_TRUE(same_hit(brute.hits[i], got.hits[i])) << name << " " << builder << " ray " << i;
+        ASSERT_EQ(brute.occluded[i], got.occluded[i]) << name << " " << builder << " ray " << i;
+      }
+    }
+  }
+}
+
+TEST(Bvh, TreeAndHitsDoNotDependOnThreadCount) {
+  const Reference& ref = reference(vendored_file(kHorse));
+  for (const std::string builder : {"binned", "sbvh"}) {
+    std::vector<Bvh> trees;
+    std::vector<Answers> answers;
+    for (const int threads : {1, 2}) {
+      ThreadLimit limit(threads);
+      trees.push_back(Bvh::build(ref.tris, builder, BvhBuildOptions{}));
+      answers.push_back(answers_of_structure(trees.back(), ref.rays));
+    }
+    const auto a = trees[0].nodes(), b = trees[1].nodes();
+    ASSERT_EQ(a.size(), b.size()) << builder;
+    EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size_bytes()), 0) << builder;
+    EXPECT_TRUE(std::equal(trees[0].prim_ids().begin(), trees[0].prim_ids().end(), trees[1].prim_ids().begin(),
+                           trees[1].prim_ids().end()))
+        << builder;
+    expect_same_answers(answers[0], answers[1], ref.rays, "1 vs 2 threads " + builder);
+  }
+}
+
+TEST(Bvh, StatsDescribeTheTree) {
+  const Reference& ref = reference(vendored_file(kHorse));
+  std::map<std::string, AccelStats> stats;
+  for (const std::string builder : {"binned", "sbvh"}) {
+    BuildConfig config;
+    config.builder = builder;
+    const AccelStats s = make_accel("bvh", ref.tris, config)->stats();
+    EXPECT_EQ(s.accel, "bvh");
+    EXPECT_EQ(s.builder, builder);
+    EXPECT_EQ(s.prims, ref.tris.size());
+    EXPECT_EQ(s.nodes, 2 * s.leaves - 1) << builder;
+    EXPECT_GT(s.leaves, ref.tris.size() / 8) << builder;
+    EXPECT_LE(s.max_depth, 64);
+    EXPECT_GT(s.mean_leaf_depth, 8);
+    EXPECT_GE(s.prim_refs, s.prims);
+    EXPECT_GT(s.bytes, s.nodes * 32);
+    ASSERT_TRUE(s.sah_cost.has_value());
+    EXPECT_GT(*s.sah_cost, 0);
+    EXPECT_GT(s.build_ms, 0);
+    stats[builder] = s;
+  }
+  EXPECT_EQ(stats["binned"].prim_refs, ref.tris.size());
+  EXPECT_GT(stats["sbvh"].prim_refs, ref.tris.size());  // spatial splits reference some triangles twice
+  EXPECT_LT(*stats["sbvh"].sah_cost, *stats["binned"].sah_cost);
+}
+
+TEST(Bvh, SbvhAlphaControlsSpatialSplits) {
+  const Reference& ref = reference(vendored_file(kHorse));
+  BvhBuildOptions options;
+  options.sbvh_alpha = 1e30f;  // never overlapping enough: object splits only
+  const Bvh none = Bvh::build(ref.tris, "sbvh", options);
+  EXPECT_EQ(none.prim_ids().size(), ref.tris.size());
+  options.sbvh_alpha = 1e-5f;
+  const Bvh some = Bvh::build(ref.tris, "sbvh", options);
+  options.sbvh_alpha = 0;
+  const Bvh most = Bvh::build(ref.tris, "sbvh", options);
+  EXPECT_GT(some.prim_ids().size(), none.prim_ids().size());
+  EXPECT_GE(most.prim_ids().size(), some.prim_ids().size());
+  expect_same_answers(ref.brute, answers_of_structure(most, ref.rays), ref.rays, "sbvh alpha 0");
+}
+
+// Twists the horse about its vertical axis and swells it: same topology, moved vertices.
+std::vector<Triangle> deform(const std::vector<Triangle>& tris) {
+  const Aabb box = bounds_of(tris);
+  const Vec3 c = box.center();
+  const auto move = [&](const Vec3& p) {
+    const float h = (p.y - box.lo.y) / box.extent().y, angle = 1.2f * h;
+    const float x = p.x - c.x, z = p.z - c.z, s = 1 + 0.3f * h;
+    return Vec3{c.x + s * (x * std::cos(angle) - z * std::sin(angle)), p.y + 0.2f * x,
+                c.z + s * (x * std::sin(angle) + z * std::cos(angle))};
+  };
+  std::vector<Triangle> out;
+  out.reserve(tris.size());
+  for (const Triangle& t : tris) out.push_back({move(t.v0), move(t.v1), move(t.v2)});
+  return out;
+}
+
+void check_refit(const std::vector<Triangle>& before, const std::vector<Triangle>& after, const std::string& what) {
+  const std::vector<Ray> rays = hard_rays(after, 20000, 11);
+  const Answers brute = answers_of(*make_brute(after, {}), rays);
+  for (const std::string builder : {"binned", "sbvh"}) {
+    BuildConfig config;
+    config.builder = builder;
+    const auto refitted = make_accel("bvh", before, config);
+    ASSERT_TRUE(refitted->refit(after));
+    const Answers got = answers_of(*refitted, rays);
+    expect_same_answers(brute, got, rays, what + " refit " + builder);
+    const auto fresh = make_accel("bvh", after, config);
+    expect_same_answers(answers_of(*fresh, rays), got, rays, what + " refit vs fresh " + builder);
+    EXPECT_EQ(refitted->stats().nodes, make_accel("bvh", before, config)->stats().nodes);
+  }
+  // A kd-top BVH refits the same way.
+  Bvh top = build_kd_top_bvh(before, 4, LeafExpander::binned, {});
+  top.refit(after);
+  expect_same_answers(brute, answers_of_structure(top, rays), rays, what + " refit kd-top");
+}
+
+TEST(Bvh, RefitAfterDeformationMatchesBruteAndFreshBuild) {
+  const Reference& ref = reference(vendored_file(kHorse));
+  check_refit(ref.tris, deform(ref.tris), "twisted horse");
+}
+
+TEST(Bvh, RefitFollowsHorseCollapseFrames) {
+  SPLITRAY_REQUIRE_SHARED(first, "anim_horse_collapse/frames/horse-collapse-01.obj.gz");
+  SPLITRAY_REQUIRE_SHARED(later, "anim_horse_collapse/frames/horse-collapse-06.obj.gz");
+  const std::vector<Triangle> a = load_triangles(first), b = load_triangles(later);
+  ASSERT_EQ(a.size(), b.size());
+  check_refit(a, b, "horse collapse 01 -> 06");
+}
+
+TEST(Bvh, RefitRejectsAnotherMesh) {
+  const Reference& ref = reference(vendored_file(kHorse));
+  Bvh bvh = Bvh::build(ref.tris, "binned", BvhBuildOptions{});
+  const std::vector<Triangle> fewer(ref.tris.begin(), ref.tris.end() - 1);
+  EXPECT_THROW(bvh.refit(fewer), Error);
+  EXPECT_FALSE(make_brute(ref.tris, {})->refit(ref.tris));  // the interface's default: cannot refit
+}
+
+TEST(Bvh, UnknownBuilderIsAnError) {
+  const Reference& ref = reference(vendored_file(kHorse));
+  BuildConfig config;
+  config.builder = "lbvh";
+  EXPECT_THROW(make_accel("bvh", ref.tris, config), Error);
+  EXPECT_THROW(Bvh::build(ref.tris, "lbvh", BvhBuildOptions{}), Error);
+}
+
+void expect_every_triangle_reachable(const Bvh& bvh, const std::vector<Triangle>& tris, const std::string& what) {
+  const std::vector<Ray> rays = centroid_rays(tris, 3);
+  const Answers brute = answers_of(*make_brute(tris, {}), rays);
+  const Answers got = answers_of_structure(bvh, rays);
+  std::size_t wrong = 0;
+  for (std::size_t i = 0; i < rays.size(); ++i)
+    if (!same_hit(brute.hits[i], got.hits[i]) || !got.occluded[i]) ++wrong;
+  EXPECT_EQ(wrong, 0u) << what;
+}
+
+TEST(KdTopBvh, EveryTriangleStaysReachable) {
+  const Reference& ref = reference(vendored_file(kHorse));
+  for (const LeafExpander expander : {LeafExpander::binned, LeafExpander::sbvh, LeafExpander::embree}) {
+    TopBvhStats stats;
+    const Bvh bvh = build_kd_top_bvh(ref.tris, 5, expander, {}, &stats);
+    EXPECT_EQ(stats.top_depth, 5);
+    EXPECT_LE(stats.top_leaves, 32u);
+    EXPECT_GT(stats.top_leaves, 8u);
+    EXPECT_GE(stats.refs, ref.tris.size());
+    EXPECT_LT(stats.refs, ref.tris.size() * 11 / 10);  // clipping duplicates a few percent
+    expect_every_triangle_reachable(bvh, ref.tris, "kd top 5 horse");
+    expect_same_answers(ref.brute, answers_of_structure(bvh, ref.rays), ref.rays, "kd top 5 horse");
+  }
+}
+
+TEST(KdTopBvh, MatchesBruteOnSibenik) {
+  SPLITRAY_REQUIRE_SHARED(path, "static_sibenik/sibenik.obj");
+  const Reference& ref = reference(path, 20000);
+  const Bvh bvh = build_kd_top_bvh(ref.tris, 6, LeafExpander::sbvh, {});
+  expect_same_answers(ref.brute, answers_of_structure(bvh, ref.rays), ref.rays, "kd top 6 sibenik");
+  expect_every_triangle_reachable(bvh, ref.tris, "kd top 6 sibenik");
+}
+
+// Leaf boxes from somewhere else (here: a 3x2x2 grid over the bounds) work the same way.
+TEST(KdTopBvh, GivenBoxesBecomeTheTop) {
+  const Reference& ref = reference(vendored_file(kHorse));
+  const Aabb box = bounds_of(ref.tris);
+  std::vector<Aabb> boxes;
+  const Vec3 e = box.extent();
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 2; ++j)
+      for (int k = 0; k < 2; ++k) {
+        Aabb cell = box;
+        cell.lo = box.lo + Vec3{e.x * static_cast<float>(i) / 3, e.y * static_cast<float>(j) / 2, e.z * static_cast<float>(k) / 2};
+        cell.hi = {i == 2 ? box.hi.x : box.lo.x + e.x * static_cast<float>(i + 1) / 3,
+                   j == 1 ? box.hi.y : box.lo.y + e.y * static_cast<float>(j + 1) / 2,
+                   k == 1 ? box.hi.z : box.lo.z + e.z * static_cast<float>(k + 1) / 2};
+        boxes.push_back(cell);
+      }
+  const std::vector<TopCell> cells = top_cells_from_boxes(boxes);
+  EXPECT_EQ(cells.size(), 2 * boxes.size() - 1);
+  const Bvh bvh = build_top_bvh(ref.tris, cells, LeafExpander::binned, BvhBuildOptions{});
+  expect_every_triangle_reachable(bvh, ref.tris, "grid top horse");
+  expect_same_answers(ref.brute, answers_of_structure(bvh, ref.rays), ref.rays, "grid top horse");
+
+  boxes.erase(boxes.begin());  // a hole: some triangles are in no cell
+  EXPECT_THROW(build_top_bvh(ref.tris, top_cells_from_boxes(boxes), LeafExpander::binned, BvhBuildOptions{}), Error);
+}
+
+}  // namespace
+}  // namespace splitray::test

@@ -1,0 +1,492 @@
+// The fast kd builders (issue #3): the golden-section / parabolic split search against an
+// exhaustive scan, the binned builder's helpers, and for `sah`, `golden` and `binned` with
+// one and two threads: closest and any hits identical to brute force on real meshes, the
+// same tree for any thread count, and sane statistics.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstring>
+#include <limits>
+#include <map>
+#include <memory>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "hierarchy_oracle.hpp"
+#include "splitray/accel/brute/brute.hpp"
+#include "splitray/accel/kd/binned_clip.hpp"
+#include "splitray/accel/kd/clip.hpp"
+#include "splitray/accel/kd/golden_events.hpp"
+#include "splitray/accel/kd/golden_search.hpp"
+#include "splitray/accel/kd/kd_accel.hpp"
+#include "splitray/accel/kd/kd_sah.hpp"
+#include "splitray/core/errors.hpp"
+#include "splitray/core/random.hpp"
+#include "splitray/io/mesh_io.hpp"
+#include "test_data.hpp"
+
+namespace splitray {
+namespace {
+
+constexpr int kAxis = 0;
+const Aabb kCell{{0, 0, 0}, {10, 4, 3}};
+
+// Primitives' extents on one axis, as sorted event lists plus the raw intervals.
+struct Intervals {
+  std::vector<std::pair<float, float>> spans;  // lo, hi (lo == hi: in-plane)
+  std::vector<float> starts, ends, planes;
+
+  void finish() {
+    starts.clear(), ends.clear(), planes.clear();
+    for (const auto& [lo, hi] : spans) {
+      if (lo == hi) {
+        planes.push_back(lo);
+      } else {
+        starts.push_back(lo);
+        ends.push_back(hi);
+      }
+    }
+    std::sort(starts.begin(), starts.end());
+    std::sort(ends.begin(), ends.end());
+    std::sort(planes.begin(), planes.end());
+  }
+  AxisEvents events() const { return {starts, ends, planes}; }
+};
+
+// n intervals in the cell of width up to `max_width`; some in-plane, some sharing bounds,
+// some at the cell's faces, so every counting rule is exercised.
+Intervals random_intervals(std::size_t n, float max_width, std::uint64_t seed) {
+  Pcg32 rng(seed);
+  Intervals s;
+  const float lo = kCell.lo[kAxis], hi = kCell.hi[kAxis];
+  for (std::size_t i = 0; i < n; ++i) {
+    float a = lo + (hi - lo) * rng.next_float();
+    float b = std::min(hi, a + max_width * rng.next_float());
+    const std::uint32_t kind = rng.next_u32() % 10;
+    if (kind == 0) b = a;                                                // in-plane
+    if (kind == 1 && !s.spans.empty()) a = s.spans[rng.next_u32() % s.spans.size()].first;  // shared start
+    if (kind == 2) a = lo;                                               // at the cell's face
+    if (kind == 3) b = hi;
+    if (kind == 4 && !s.spans.empty()) a = b = s.spans[rng.next_u32() % s.spans.size()].second;
+    if (a > b) std::swap(a, b);
+    s.spans.push_back({a, b});
+  }
+  s.finish();
+  return s;
+}
+
+// The SAH at `p` by counting every interval, planar ones on their cheaper side.
+double brute_cost(const Intervals& s, const KdSplitCost& cost, float p, std::size_t* below_out = nullptr,
+                  std::size_t* above_out = nullptr) {
+  std::size_t below = 0, above = 0, planar = 0;
+  for (const auto& [lo, hi] : s.spans) {
+    if (lo == hi && lo == p) ++planar;
+    else {
+      below += lo < p ? 1 : 0;
+      above += hi > p ? 1 : 0;
+    }
+  }
+  const double c_below = cost.split(kCell, kAxis, p, below + planar, above);
+  const double c_above = cost.split(kCell, kAxis, p, below, above + planar);
+  const bool go_below = planar == 0 || c_below <= c_above;
+  if (below_out) *below_out = go_below ? below + planar : below;
+  if (above_out) *above_out = go_below ? above : above + planar;
+  return go_below ? c_below : c_above;
+}
+
+// The exact minimum: every distinct bound strictly inside the cell.
+SplitCandidate brute_minimum(const Intervals& s, const KdSplitCost& cost) {
+  std::set<float> candidates;
+  for (const auto& [lo, hi] : s.spans) candidates.insert(lo), candidates.insert(hi);
+  SplitCandidate best;
+  for (const float p : candidates) {
+    if (!(p > kCell.lo[kAxis] && p < kCell.hi[kAxis])) continue;
+    const double c = brute_cost(s, cost, p);
+    if (c < best.cost) best.cost = c, best.position = p;
+  }
+  return best;
+}
+
+TEST(KdAxisCost, EqualsKdSplitCostBitForBit) {
+  const KdSplitCost cost{BuildConfig{}};
+  Pcg32 rng(7);
+  for (int i = 0; i < 2000; ++i) {
+    const Aabb box{{-rng.next_float(), -2 * rng.next_float(), 0}, {rng.next_float() + 0.1f, 1, 3 * rng.next_float() + 1e-3f}};
+    const int axis = static_cast<int>(rng.next_u32() % 3);
+    const float p = box.lo[axis] + box.extent()[axis] * rng.next_float();
+    const std::size_t nb = rng.next_u32() % 50, na = rng.next_u32() % 3;
+    const double expected = cost.split(box, axis, p, nb, na);
+    const double got = KdAxisCost(cost, box, axis)(p, nb, na);
+    ASSERT_EQ(std::memcmp(&expected, &got, sizeof expected), 0) << i;
+  }
+}
+
+TEST(GoldenSearch, BinarySearchCountsEqualCountingEveryPrimitive) {
+  const KdSplitCost cost{BuildConfig{}};
+  for (std::uint64_t seed = 1; seed <= 20; ++seed) {
+    const Intervals s = random_intervals(200, 2.0f, seed);
+    Pcg32 rng(seed + 100);
+    for (int probe = 0; probe < 200; ++probe) {
+      // Half the probes exactly on bounds, where the counting rules matter.
+      float p = probe % 2 ? s.spans[rng.next_u32() % s.spans.size()].first : 10 * rng.next_float();
+      if (!(p > 0 && p < 10)) p = 5;
+      std::uint32_t evals = 0;
+      const SplitCandidate c = evaluate_split(s.events(), kCell, kAxis, cost, p, evals);
+      std::size_t below = 0, above = 0;
+      const double expected = brute_cost(s, cost, p, &below, &above);
+      ASSERT_EQ(c.cost, expected) << "seed " << seed << " p " << p;
+      EXPECT_EQ(c.n_below, below);
+      EXPECT_EQ(c.n_above, above);
+      EXPECT_GE(evals, 1u);
+    }
+  }
+}
+
+TEST(GoldenSearch, ExhaustiveScanFindsTheExactMinimum) {
+  const KdSplitCost cost{BuildConfig{}};
+  for (std::uint64_t seed = 1; seed <= 30; ++seed) {
+    const Intervals s = random_intervals(5 + seed * 7, 3.0f, seed);
+    const SplitCandidate expected = brute_minimum(s, cost);
+    const GoldenSearchResult r = exhaustive_search_axis(s.events(), kCell, kAxis, cost, 0, 10);
+    ASSERT_TRUE(r.best.valid());
+    EXPECT_EQ(r.best.cost, expected.cost) << "seed " << seed;
+    EXPECT_EQ(r.best.position, expected.position) << "seed " << seed;
+    EXPECT_LE(r.evals, 2 * (s.starts.size() + s.ends.size() + s.planes.size()));
+  }
+}
+
+TEST(GoldenSearch, SmallAxesAreScannedExactly) {
+  const KdSplitCost cost{BuildConfig{}};
+  for (std::uint64_t seed = 1; seed <= 30; ++seed) {
+    const Intervals s = random_intervals(8, 3.0f, seed);  // at most 16 events
+    const GoldenSearchResult r = golden_search_axis(s.events(), kCell, kAxis, cost, 0, 10);
+    EXPECT_EQ(r.best.cost, brute_minimum(s, cost).cost) << "seed " << seed;
+  }
+}
+
+// Many small primitives: a cost curve like a real node's. The search must land within a
+// percent of the exact minimum while evaluating a few dozen planes instead of thousands.
+TEST(GoldenSearch, FindsTheMinimumOfManyPrimitivesWithFewEvaluations) {
+  const KdSplitCost cost{BuildConfig{}};
+  double worst = 1;
+  for (std::uint64_t seed = 1; seed <= 40; ++seed) {
+    Intervals s = random_intervals(4000, 0.05f + 0.02f * static_cast<float>(seed % 5), seed);
+    // A denser cluster somewhere, as real geometry has, so the minimum is not in the middle.
+    Pcg32 rng(seed);
+    const float centre = 10 * rng.next_float();
+    for (int i = 0; i < 3000; ++i) {
+      const float a = std::clamp(centre + rng.next_float() - 0.5f, 0.0f, 9.9f);
+      s.spans.push_back({a, a + 0.01f});
+    }
+    s.finish();
+    const SplitCandidate exact = exhaustive_search_axis(s.events(), kCell, kAxis, cost, 0, 10).best;
+    const GoldenSearchResult r = golden_search_axis(s.events(), kCell, kAxis, cost, 0, 10);
+    ASSERT_TRUE(r.best.valid());
+    EXPECT_GE(r.best.cost, exact.cost);  // never better than the exact minimum
+    worst = std::max(worst, r.best.cost / exact.cost);
+    EXPECT_LE(r.best.cost, exact.cost * 1.01) << "seed " << seed;
+    EXPECT_LE(r.evals, 40u) << "seed " << seed;
+    // The result is an event position with its true cost.
+    std::uint32_t evals = 0;
+    EXPECT_EQ(evaluate_split(s.events(), kCell, kAxis, cost, r.best.position, evals).cost, r.best.cost);
+  }
+  RecordProperty("worst_ratio_to_exact", std::to_string(worst));
+}
+
+// Issue #4 starts the search from a predicted position in a narrow bracket.
+TEST(GoldenSearch, StartsFromAPredictionInsideANarrowBracket) {
+  const KdSplitCost cost{BuildConfig{}};
+  for (std::uint64_t seed = 1; seed <= 20; ++seed) {
+    const Intervals s = random_intervals(3000, 0.1f, seed);
+    const SplitCandidate exact = exhaustive_search_axis(s.events(), kCell, kAxis, cost, 0, 10).best;
+    const float p = exact.position;
+    const GoldenSearchResult near = golden_search_axis(s.events(), kCell, kAxis, cost, p - 0.3f, p + 0.3f, p + 0.05f);
+    ASSERT_TRUE(near.best.valid());
+    EXPECT_LE(near.best.cost, exact.cost * 1.002) << "seed " << seed;
+    EXPECT_LE(near.evals, 30u);
+    EXPECT_FALSE(near.at_bracket_edge) << "seed " << seed;
+  }
+  // All primitives in [6, 9]: in a bracket over the empty space before them the cost falls
+  // toward the bracket's upper edge, and the caller is told to widen the search.
+  Intervals clustered = random_intervals(500, 0.1f, 9);
+  for (auto& [lo, hi] : clustered.spans) lo = 6 + 0.3f * lo, hi = 6 + 0.3f * hi;
+  clustered.finish();
+  const GoldenSearchResult far = golden_search_axis(clustered.events(), kCell, kAxis, cost, 0.5f, 1.1f, 0.8f);
+  ASSERT_TRUE(far.best.valid());
+  EXPECT_TRUE(far.at_bracket_edge);
+}
+
+TEST(GoldenSearch, NoPositionInsideADegenerateCellIsValid) {
+  const KdSplitCost cost{BuildConfig{}};
+  const Intervals s = random_intervals(100, 1, 3);
+  EXPECT_FALSE(golden_search_axis(s.events(), kCell, kAxis, cost, 4, 4).best.valid());
+  const Intervals empty;
+  EXPECT_FALSE(golden_search_axis(empty.events(), kCell, kAxis, cost, 0, 10).best.valid());
+}
+
+std::vector<Triangle> horse() { return test::load_triangles(test::vendored_file("horse/horse.obj.gz")); }
+
+TEST(FastClip, EqualsClipTriangleBounds) {
+  const std::vector<Triangle> tris = horse();
+  Pcg32 rng(11);
+  for (int i = 0; i < 200000; ++i) {
+    const Triangle& t = tris[rng.next_u32() % tris.size()];
+    const Aabb tb = t.bounds();
+    Aabb box;
+    for (int a = 0; a < 3; ++a) {
+      const float ext = tb.hi[a] - tb.lo[a];
+      const auto pick = [&] {
+        switch (rng.next_u32() % 4) {
+          case 0: return tb.lo[a];
+          case 1: return tb.hi[a];
+          default: return tb.lo[a] - 0.2f * ext + 1.4f * ext * rng.next_float();
+        }
+      };
+      float p = pick(), q = pick();
+      if (p > q) std::swap(p, q);
+      box.lo[a] = p, box.hi[a] = q;
+    }
+    const Aabb expected = clip_triangle_bounds(t, box), got = clip_triangle_bounds_fast(t, box);
+    ASSERT_TRUE(expected.lo == got.lo && expected.hi == got.hi) << "clip " << i;
+  }
+}
+
+// The root's event lists of a real mesh: golden search against the exhaustive scan per axis.
+TEST(GoldenSearch, MatchesTheExhaustiveScanAtTheRootOfTheHorse) {
+  const std::vector<Triangle> tris = horse();
+  Aabb cell;
+  for (const Triangle& t : tris) cell.extend(t.bounds());
+  const GoldenPrims prims = make_golden_prims(tris, cell, false);
+  ASSERT_EQ(prims.size(), tris.size());
+  const KdSplitCost cost{BuildConfig{}};
+  for (int axis = 0; axis < 3; ++axis) {
+    const AxisEvents events = prims.axis_events(axis);
+    ASSERT_TRUE(std::is_sorted(events.starts.begin(), events.starts.end()));
+    ASSERT_TRUE(std::is_sorted(events.ends.begin(), events.ends.end()));
+    const GoldenSearchResult exact = exhaustive_search_axis(events, cell, axis, cost, cell.lo[axis], cell.hi[axis]);
+    const GoldenSearchResult golden = golden_search_axis(events, cell, axis, cost, cell.lo[axis], cell.hi[axis]);
+    EXPECT_LE(golden.best.cost, exact.best.cost * 1.01) << "axis " << axis;
+    EXPECT_LT(golden.evals * 100, exact.evals) << "axis " << axis;
+  }
+}
+
+// A split keeps each child's event lists sorted and consistent with its clipped bounds.
+TEST(GoldenEvents, SplitHandsEachChildSortedConsistentLists) {
+  const std::vector<Triangle> tris = horse();
+  Aabb cell;
+  for (const Triangle& t : tris) cell.extend(t.bounds());
+  for (const bool parallel : {false, true}) {
+    GoldenPrims root = make_golden_prims(tris, cell, parallel);
+    const float position = cell.center().y;
+    GoldenPrims below, above;
+    GoldenSplitOptions options;
+    options.parallel = parallel;
+    split_golden_prims(root, tris, cell, 1, position, true, below, above, options);
+    EXPECT_EQ(root.size(), 0u);  // released
+    for (const GoldenPrims* child : {&below, &above}) {
+      ASSERT_GT(child->size(), 1000u);
+      for (int axis = 0; axis < 3; ++axis) {
+        std::size_t spans = 0, planes = 0;
+        for (const Aabb& b : child->bounds()) (b.lo[axis] == b.hi[axis] ? planes : spans) += 1;
+        for (int kind = 0; kind < 3; ++kind) {
+          const EventSpan& e = child->events(axis, kind);
+          EXPECT_EQ(e.size, kind == kPlaneEvent ? planes : spans);
+          for (std::size_t j = 0; j < e.size; ++j) {
+            if (j > 0) {
+              ASSERT_LE(e.pos[j - 1], e.pos[j]);
+            }
+            ASSERT_LT(e.prim[j], child->size());
+            const Aabb& b = child->bounds()[e.prim[j]];
+            ASSERT_EQ(e.pos[j], kind == kEndEvent ? b.hi[axis] : b.lo[axis]);
+          }
+        }
+      }
+    }
+    EXPECT_LT(below.size() + above.size(), tris.size() * 11 / 10);  // few straddlers
+    for (const Aabb& b : below.bounds()) EXPECT_LE(b.hi.y, position);
+    for (const Aabb& b : above.bounds()) EXPECT_GE(b.lo.y, position);
+  }
+}
+
+// ---- The builders through make_accel ------------------------------------------------------
+
+const std::vector<std::string> kBuilders = {"sah", "golden", "binned"};
+
+// A mesh, its rays (hard rays plus rays at the exact midpoints of shared edges) and brute's answers.
+struct Case {
+  std::vector<Triangle> tris;
+  std::vector<Ray> rays;
+  test::Answers brute;
+  std::map<std::string, AccelStats> stats;  // per builder, threads = 1
+};
+
+std::vector<Ray> shared_edge_rays(const Mesh& mesh, std::size_t count, std::uint64_t seed) {
+  std::map<std::pair<std::uint32_t, std::uint32_t>, int> uses;
+  for (const auto& f : mesh.faces)
+    for (int i = 0; i < 3; ++i) ++uses[std::minmax(f[i], f[(i + 1) % 3])];
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> shared;
+  for (const auto& [edge, n] : uses)
+    if (n == 2) shared.push_back(edge);
+  std::vector<Ray> rays;
+  if (shared.empty()) return rays;
+  Pcg32 rng(seed);
+  const Aabb box = mesh.bounds();
+  const float radius = length(box.extent());
+  for (std::size_t i = 0; i < count; ++i) {
+    const auto& [a, b] = shared[rng.next_u32() % shared.size()];
+    const Vec3 target = (mesh.positions[a] + mesh.positions[b]) * 0.5f;
+    const Vec3 org = box.center() + uniform_sphere(rng.next_float(), rng.next_float()) * (radius * (0.6f + rng.next_float()));
+    rays.push_back({org, target - org});
+  }
+  return rays;
+}
+
+Case& mesh_case(const std::string& path) {
+  static std::map<std::string, std::unique_ptr<Case>> cache;
+  auto& slot = cache[path];
+  if (!slot) {
+    slot = std::make_unique<Case>();
+    const Mesh mesh = load_mesh(path);
+    slot->tris = mesh.triangles();
+    slot->rays = test::hard_rays(slot->tris, 20000, 0x6b64);
+    const std::vector<Ray> edges = shared_edge_rays(mesh, 4000, 0x6564);
+    slot->rays.insert(slot->rays.end(), edges.begin(), edges.end());
+    slot->brute = test::answers_of(*make_accel("brute", slot->tris), slot->rays);
+  }
+  return *slot;
+}
+
+const KdTree& tree_of(const Accel& accel) { return dynamic_cast<const KdAccel&>(accel).tree(); }
+
+bool same_tree(const KdTree& a, const KdTree& b) {
+  return a.nodes.size() == b.nodes.size() && a.prim_ids == b.prim_ids &&
+         std::memcmp(a.nodes.data(), b.nodes.data(), a.nodes.size() * sizeof(KdNode)) == 0;
+}
+
+// Every builder, one and two threads: brute's exact answers and one tree.
+void check_builders(const std::string& path) {
+  Case& c = mesh_case(path);
+  for (const std::string& builder : kBuilders) {
+    std::unique_ptr<Accel> first;
+    for (const int threads : {1, 2}) {
+      BuildConfig config;
+      config.builder = builder;
+      config.threads = threads;
+      auto kd = make_accel("kd", c.tris, config);
+      const std::string what = path + " builder " + builder + " threads " + std::to_string(threads);
+      test::expect_same_answers(c.brute, test::answers_of(*kd, c.rays), c.rays, what);
+      const AccelStats& s = kd->stats();
+      EXPECT_EQ(s.builder, builder);
+      ASSERT_TRUE(s.sah_cost.has_value()) << what;
+      EXPECT_GT(*s.sah_cost, 0) << what;
+      EXPECT_GT(s.cost_evals, 0u) << what;
+      EXPECT_EQ(s.leaves * 2, s.nodes + 1) << what;
+      EXPECT_GE(s.prim_refs, c.tris.size()) << what;
+      if (!first) {
+        c.stats[builder] = s;
+        first = std::move(kd);
+        continue;
+      }
+      EXPECT_TRUE(same_tree(tree_of(*first), tree_of(*kd))) << what << ": differs from the 1-thread tree";
+      EXPECT_EQ(first->stats().cost_evals, s.cost_evals) << what;
+      EXPECT_EQ(first->stats().sah_cost, s.sah_cost) << what;
+    }
+  }
+  // Loose sanity: quality targets belong to the benchmark, broken searches show here.
+  const double sah = *c.stats["sah"].sah_cost;
+  for (const std::string builder : {"golden", "binned"})
+    EXPECT_LT(*c.stats[builder].sah_cost, 1.5 * sah) << path << " " << builder;
+}
+
+TEST(KdBuilders, MatchBruteOnHorse) {
+  check_builders(test::vendored_file("horse/horse.obj.gz"));
+  Case& c = mesh_case(test::vendored_file("horse/horse.obj.gz"));
+  // The golden search evaluates fewer planes than the exact sweep.
+  EXPECT_LT(c.stats["golden"].cost_evals, c.stats["sah"].cost_evals);
+}
+
+TEST(KdBuilders, MatchBruteOnCornellBox) {
+  SPLITRAY_REQUIRE_SHARED(path, "static_cornell_box/cornell_box.obj");
+  check_builders(path);
+}
+
+TEST(KdBuilders, MatchBruteOnFaerie) {
+  SPLITRAY_REQUIRE_SHARED(path, "anim_md2_faerie/frames/faerie_000.obj");
+  check_builders(path);
+}
+
+TEST(KdBuilders, MatchBruteOnCat) {
+  SPLITRAY_REQUIRE_SHARED(path, "static_sumner_cat_lion_poses/cat-poses/cat-02.obj.gz");
+  check_builders(path);
+}
+
+// Hard geometry for the counting rules: a flat grid (every triangle in one plane), an
+// axis-aligned box of quads, and many copies of one triangle (only the depth limit stops).
+std::vector<Triangle> special_mesh(int kind) {
+  std::vector<Triangle> tris;
+  if (kind == 0) {
+    for (int i = 0; i < 30; ++i)
+      for (int j = 0; j < 30; ++j) {
+        const Vec3 a{float(i), float(j), 0}, b{float(i + 1), float(j), 0}, c{float(i), float(j + 1), 0},
+            d{float(i + 1), float(j + 1), 0};
+        tris.push_back({a, b, d});
+        tris.push_back({a, d, c});
+      }
+  } else if (kind == 1) {
+    for (int axis = 0; axis < 3; ++axis)
+      for (const float side : {0.0f, 2.0f})
+        for (int i = 0; i < 8; ++i)
+          for (int j = 0; j < 8; ++j) {
+            const auto at = [&](float u, float v) {
+              Vec3 p;
+              p[axis] = side;
+              p[(axis + 1) % 3] = u * 0.25f;
+              p[(axis + 2) % 3] = v * 0.25f;
+              return p;
+            };
+            tris.push_back({at(i, j), at(i + 1, j), at(i + 1, j + 1)});
+            tris.push_back({at(i, j), at(i + 1, j + 1), at(i, j + 1)});
+          }
+  } else {
+    for (int i = 0; i < 40; ++i) tris.push_back({{0, 0, 0}, {1, 0, 0}, {0, 1, 1}});
+    tris.push_back({{2, 2, 2}, {3, 2, 2}, {2, 3, 2}});
+  }
+  return tris;
+}
+
+TEST(KdBuilders, MatchBruteOnFlatBoxyAndRepeatedGeometry) {
+  for (int kind = 0; kind < 3; ++kind) {
+    const std::vector<Triangle> tris = special_mesh(kind);
+    const std::vector<Ray> rays = test::hard_rays(tris, 6000, 17 + kind);
+    const test::Answers brute = test::answers_of(*make_accel("brute", tris), rays);
+    for (const std::string& builder : kBuilders) {
+      BuildConfig config;
+      config.builder = builder;
+      auto kd = make_accel("kd", tris, config);
+      test::expect_same_answers(brute, test::answers_of(*kd, rays), rays,
+                                "mesh " + std::to_string(kind) + " builder " + builder);
+    }
+  }
+}
+
+TEST(KdBuilders, OneTriangleAndFewBins) {
+  const std::vector<Triangle> one = {{{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}};
+  const std::vector<Triangle> horse_tris = horse();
+  for (const std::string& builder : kBuilders) {
+    BuildConfig config;
+    config.builder = builder;
+    EXPECT_EQ(make_accel("kd", one, config)->stats().nodes, 1u);
+  }
+  BuildConfig config;
+  config.builder = "binned";
+  config.bins = 2;
+  const std::vector<Ray> rays = test::hard_rays(horse_tris, 3000, 5);
+  test::expect_same_answers(test::answers_of(*make_accel("brute", horse_tris), rays),
+                            test::answers_of(*make_accel("kd", horse_tris, config), rays), rays, "2 bins");
+  config.bins = 1;
+  EXPECT_THROW(make_accel("kd", horse_tris, config), Error);
+}
+
+}  // namespace
+}  // namespace splitray
