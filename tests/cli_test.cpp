@@ -112,7 +112,7 @@ class Cli : public ::testing::Test {
 TEST_F(Cli, HelpForTheProgramAndEveryCommand) {
   const Result top = run("--help");
   EXPECT_EQ(top.status, 0) << top.err;
-  for (const std::string command : {"render", "build", "trace", "bench"})
+  for (const std::string command : {"render", "build", "trace", "knn", "bench"})
     EXPECT_NE(top.out.find(command), std::string::npos) << "--help does not list " << command;
 
   const std::vector<std::pair<std::string, std::vector<std::string>>> commands = {
@@ -120,6 +120,7 @@ TEST_F(Cli, HelpForTheProgramAndEveryCommand) {
                   "--threads", "--max-depth", "--json"}},
       {"build", {"MESH", "--accel", "--builder", "--threads", "--kt", "--ki", "--bins", "--json"}},
       {"trace", {"MESH", "--accel", "--rays", "--kind", "--seed", "--camera", "--any", "--json"}},
+      {"knn", {"INPUT", "--k", "--json"}},
       {"bench", {"build-trace"}},
       {"bench build-trace", {}},
   };

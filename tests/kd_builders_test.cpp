@@ -64,9 +64,10 @@ Intervals random_intervals(std::size_t n, float max_width, std::uint64_t seed) {
     float a = lo + (hi - lo) * rng.next_float();
     float b = std::min(hi, a + max_width * rng.next_float());
     const std::uint32_t kind = rng.next_u32() % 10;
-    if (kind == 0) b = a;                                                // in-plane
-    if (kind == 1 && !s.spans.empty()) a = s.spans[rng.next_u32() % s.spans.size()].first;  // shared start
-    if (kind == 2) a = lo;                                               // at the cell's face
+    if (kind == 0) b = a;  // in-plane
+    if (kind == 1 && !s.spans.empty())
+      a = s.spans[rng.next_u32() % s.spans.size()].first;  // shared start
+    if (kind == 2) a = lo;                                 // at the cell's face
     if (kind == 3) b = hi;
     if (kind == 4 && !s.spans.empty()) a = b = s.spans[rng.next_u32() % s.spans.size()].second;
     if (a > b) std::swap(a, b);
@@ -77,11 +78,12 @@ Intervals random_intervals(std::size_t n, float max_width, std::uint64_t seed) {
 }
 
 // The SAH at `p` by counting every interval, planar ones on their cheaper side.
-double brute_cost(const Intervals& s, const KdSplitCost& cost, float p, std::size_t* below_out = nullptr,
-                  std::size_t* above_out = nullptr) {
+double brute_cost(const Intervals& s, const KdSplitCost& cost, float p,
+                  std::size_t* below_out = nullptr, std::size_t* above_out = nullptr) {
   std::size_t below = 0, above = 0, planar = 0;
   for (const auto& [lo, hi] : s.spans) {
-    if (lo == hi && lo == p) ++planar;
+    if (lo == hi && lo == p)
+      ++planar;
     else {
       below += lo < p ? 1 : 0;
       above += hi > p ? 1 : 0;
@@ -112,7 +114,8 @@ TEST(KdAxisCost, EqualsKdSplitCostBitForBit) {
   const KdSplitCost cost{BuildConfig{}};
   Pcg32 rng(7);
   for (int i = 0; i < 2000; ++i) {
-    const Aabb box{{-rng.next_float(), -2 * rng.next_float(), 0}, {rng.next_float() + 0.1f, 1, 3 * rng.next_float() + 1e-3f}};
+    const Aabb box{{-rng.next_float(), -2 * rng.next_float(), 0},
+                   {rng.next_float() + 0.1f, 1, 3 * rng.next_float() + 1e-3f}};
     const int axis = static_cast<int>(rng.next_u32() % 3);
     const float p = box.lo[axis] + box.extent()[axis] * rng.next_float();
     const std::size_t nb = rng.next_u32() % 50, na = rng.next_u32() % 3;
@@ -189,7 +192,8 @@ TEST(GoldenSearch, FindsTheMinimumOfManyPrimitivesWithFewEvaluations) {
     EXPECT_LE(r.evals, 40u) << "seed " << seed;
     // The result is an event position with its true cost.
     std::uint32_t evals = 0;
-    EXPECT_EQ(evaluate_split(s.events(), kCell, kAxis, cost, r.best.position, evals).cost, r.best.cost);
+    EXPECT_EQ(evaluate_split(s.events(), kCell, kAxis, cost, r.best.position, evals).cost,
+              r.best.cost);
   }
   RecordProperty("worst_ratio_to_exact", std::to_string(worst));
 }
@@ -201,7 +205,8 @@ TEST(GoldenSearch, StartsFromAPredictionInsideANarrowBracket) {
     const Intervals s = random_intervals(3000, 0.1f, seed);
     const SplitCandidate exact = exhaustive_search_axis(s.events(), kCell, kAxis, cost, 0, 10).best;
     const float p = exact.position;
-    const GoldenSearchResult near = golden_search_axis(s.events(), kCell, kAxis, cost, p - 0.3f, p + 0.3f, p + 0.05f);
+    const GoldenSearchResult near =
+        golden_search_axis(s.events(), kCell, kAxis, cost, p - 0.3f, p + 0.3f, p + 0.05f);
     ASSERT_TRUE(near.best.valid());
     EXPECT_LE(near.best.cost, exact.cost * 1.002) << "seed " << seed;
     EXPECT_LE(near.evals, 30u);
@@ -212,7 +217,8 @@ TEST(GoldenSearch, StartsFromAPredictionInsideANarrowBracket) {
   Intervals clustered = random_intervals(500, 0.1f, 9);
   for (auto& [lo, hi] : clustered.spans) lo = 6 + 0.3f * lo, hi = 6 + 0.3f * hi;
   clustered.finish();
-  const GoldenSearchResult far = golden_search_axis(clustered.events(), kCell, kAxis, cost, 0.5f, 1.1f, 0.8f);
+  const GoldenSearchResult far =
+      golden_search_axis(clustered.events(), kCell, kAxis, cost, 0.5f, 1.1f, 0.8f);
   ASSERT_TRUE(far.best.valid());
   EXPECT_TRUE(far.at_bracket_edge);
 }
@@ -225,7 +231,9 @@ TEST(GoldenSearch, NoPositionInsideADegenerateCellIsValid) {
   EXPECT_FALSE(golden_search_axis(empty.events(), kCell, kAxis, cost, 0, 10).best.valid());
 }
 
-std::vector<Triangle> horse() { return test::load_triangles(test::vendored_file("horse/horse.obj.gz")); }
+std::vector<Triangle> horse() {
+  return test::load_triangles(test::vendored_file("horse/horse.obj.gz"));
+}
 
 TEST(FastClip, EqualsClipTriangleBounds) {
   const std::vector<Triangle> tris = horse();
@@ -238,9 +246,12 @@ TEST(FastClip, EqualsClipTriangleBounds) {
       const float ext = tb.hi[a] - tb.lo[a];
       const auto pick = [&] {
         switch (rng.next_u32() % 4) {
-          case 0: return tb.lo[a];
-          case 1: return tb.hi[a];
-          default: return tb.lo[a] - 0.2f * ext + 1.4f * ext * rng.next_float();
+          case 0:
+            return tb.lo[a];
+          case 1:
+            return tb.hi[a];
+          default:
+            return tb.lo[a] - 0.2f * ext + 1.4f * ext * rng.next_float();
         }
       };
       float p = pick(), q = pick();
@@ -264,8 +275,10 @@ TEST(GoldenSearch, MatchesTheExhaustiveScanAtTheRootOfTheHorse) {
     const AxisEvents events = prims.axis_events(axis);
     ASSERT_TRUE(std::is_sorted(events.starts.begin(), events.starts.end()));
     ASSERT_TRUE(std::is_sorted(events.ends.begin(), events.ends.end()));
-    const GoldenSearchResult exact = exhaustive_search_axis(events, cell, axis, cost, cell.lo[axis], cell.hi[axis]);
-    const GoldenSearchResult golden = golden_search_axis(events, cell, axis, cost, cell.lo[axis], cell.hi[axis]);
+    const GoldenSearchResult exact =
+        exhaustive_search_axis(events, cell, axis, cost, cell.lo[axis], cell.hi[axis]);
+    const GoldenSearchResult golden =
+        golden_search_axis(events, cell, axis, cost, cell.lo[axis], cell.hi[axis]);
     EXPECT_LE(golden.best.cost, exact.best.cost * 1.01) << "axis " << axis;
     EXPECT_LT(golden.evals * 100, exact.evals) << "axis " << axis;
   }
@@ -313,7 +326,8 @@ TEST(GoldenEvents, SplitHandsEachChildSortedConsistentLists) {
 
 const std::vector<std::string> kBuilders = {"sah", "golden", "binned"};
 
-// A mesh, its rays (hard rays plus rays at the exact midpoints of shared edges) and brute's answers.
+// A mesh, its rays (hard rays plus rays at the exact midpoints of shared edges) and brute's
+// answers.
 struct Case {
   std::vector<Triangle> tris;
   std::vector<Ray> rays;
@@ -336,7 +350,8 @@ std::vector<Ray> shared_edge_rays(const Mesh& mesh, std::size_t count, std::uint
   for (std::size_t i = 0; i < count; ++i) {
     const auto& [a, b] = shared[rng.next_u32() % shared.size()];
     const Vec3 target = (mesh.positions[a] + mesh.positions[b]) * 0.5f;
-    const Vec3 org = box.center() + uniform_sphere(rng.next_float(), rng.next_float()) * (radius * (0.6f + rng.next_float()));
+    const Vec3 org = box.center() + uniform_sphere(rng.next_float(), rng.next_float()) *
+                                        (radius * (0.6f + rng.next_float()));
     rays.push_back({org, target - org});
   }
   return rays;
@@ -388,7 +403,8 @@ void check_builders(const std::string& path) {
         first = std::move(kd);
         continue;
       }
-      EXPECT_TRUE(same_tree(tree_of(*first), tree_of(*kd))) << what << ": differs from the 1-thread tree";
+      EXPECT_TRUE(same_tree(tree_of(*first), tree_of(*kd)))
+          << what << ": differs from the 1-thread tree";
       EXPECT_EQ(first->stats().cost_evals, s.cost_evals) << what;
       EXPECT_EQ(first->stats().sah_cost, s.sah_cost) << what;
     }
@@ -421,6 +437,26 @@ TEST(KdBuilders, MatchBruteOnCat) {
   check_builders(path);
 }
 
+// The dragon (100k triangles) is large enough for the node-level parallel code (parallel
+// binning, event-list splits and axis searches): still one tree for any thread count.
+TEST(KdBuilders, SameTreeForOneAndTwoThreadsOnTheDragon) {
+  const std::vector<Triangle> tris =
+      test::load_triangles(test::vendored_file("dragon_100k/dragon.obj.gz"));
+  const std::vector<Ray> rays = test::hard_rays(tris, 3000, 23);
+  const test::Answers brute = test::answers_of(*make_accel("brute", tris), rays);
+  for (const std::string builder : {"golden", "binned"}) {
+    BuildConfig config;
+    config.builder = builder;
+    config.threads = 1;
+    const auto one = make_accel("kd", tris, config);
+    config.threads = 2;
+    const auto two = make_accel("kd", tris, config);
+    EXPECT_TRUE(same_tree(tree_of(*one), tree_of(*two))) << builder;
+    EXPECT_EQ(one->stats().cost_evals, two->stats().cost_evals) << builder;
+    test::expect_same_answers(brute, test::answers_of(*two, rays), rays, "dragon " + builder);
+  }
+}
+
 // Hard geometry for the counting rules: a flat grid (every triangle in one plane), an
 // axis-aligned box of quads, and many copies of one triangle (only the depth limit stops).
 std::vector<Triangle> special_mesh(int kind) {
@@ -428,8 +464,8 @@ std::vector<Triangle> special_mesh(int kind) {
   if (kind == 0) {
     for (int i = 0; i < 30; ++i)
       for (int j = 0; j < 30; ++j) {
-        const Vec3 a{float(i), float(j), 0}, b{float(i + 1), float(j), 0}, c{float(i), float(j + 1), 0},
-            d{float(i + 1), float(j + 1), 0};
+        const Vec3 a{float(i), float(j), 0}, b{float(i + 1), float(j), 0},
+            c{float(i), float(j + 1), 0}, d{float(i + 1), float(j + 1), 0};
         tris.push_back({a, b, d});
         tris.push_back({a, d, c});
       }
@@ -483,7 +519,8 @@ TEST(KdBuilders, OneTriangleAndFewBins) {
   config.bins = 2;
   const std::vector<Ray> rays = test::hard_rays(horse_tris, 3000, 5);
   test::expect_same_answers(test::answers_of(*make_accel("brute", horse_tris), rays),
-                            test::answers_of(*make_accel("kd", horse_tris, config), rays), rays, "2 bins");
+                            test::answers_of(*make_accel("kd", horse_tris, config), rays), rays,
+                            "2 bins");
   config.bins = 1;
   EXPECT_THROW(make_accel("kd", horse_tris, config), Error);
 }

@@ -109,11 +109,14 @@ TEST(KnnTest, EveryBuilderEqualsBruteForceForKNearest) {
 
 TEST(KnnTest, EveryBuilderEqualsBruteForceForRadius) {
   const PointSet& set = horse_points();
-  for (float fraction : {0.0f, 0.002f, 0.02f}) {
+  for (float fraction : {0.0f, 0.003f, 0.02f}) {
     const float r = fraction * set.diagonal;
     const RadiusResult expected = brute_force_radius(set.points, set.queries, r);
-    if (fraction > 0) EXPECT_GT(expected.indices.size(), set.queries.size());
-    else EXPECT_GE(expected.indices.size(), 150u + 41u);  // queries on points find them
+    if (fraction == 0) {
+      EXPECT_GE(expected.indices.size(), 150u + 41u);  // queries on points find them
+    } else if (fraction > 0.01f) {
+      EXPECT_GT(expected.indices.size(), 10 * set.queries.size());
+    }
     for (const std::string& builder : kOurBuilders) {
       const PointTree tree(set.points, {.builder = builder, .radius = r});
       expect_same_radius(expected, tree.radius(set.queries, r),
@@ -162,23 +165,26 @@ TEST(KnnTest, SingleQueriesMatchTheBatch) {
 
 TEST(KnnTest, NanoflannAndFlannEqualBruteForceInDistances) {
   const PointSet& set = horse_points();
+  const std::vector<int> ks = {1, 8, 50};
+  const std::vector<float> radii = {0.0f, 0.01f * set.diagonal};
+  std::vector<KnnResult> knn;
+  std::vector<RadiusResult> within;
+  for (int k : ks) knn.push_back(brute_force_knn(set.points, set.queries, k));
+  for (float r : radii) within.push_back(brute_force_radius(set.points, set.queries, r));
   for (const std::string name : {"nanoflann", "flann"}) {
     for (bool coherent : {false, true}) {
       const auto index = make_neighbor_index(set.points, {.builder = name, .coherent_peers = coherent});
-      for (int k : {1, 8, 50})
-        expect_same_distances(brute_force_knn(set.points, set.queries, k), index->knn(set.queries, k),
-                              name + " k=" + std::to_string(k));
-      for (float fraction : {0.0f, 0.01f}) {
-        const float r = fraction * set.diagonal;
-        const RadiusResult expected = brute_force_radius(set.points, set.queries, r);
-        const RadiusResult actual = index->radius(set.queries, r);
-        EXPECT_EQ(expected.offsets, actual.offsets) << name << " r=" << r;
-        EXPECT_EQ(expected.distances, actual.distances) << name << " r=" << r;
+      for (std::size_t i = 0; i < ks.size(); ++i)
+        expect_same_distances(knn[i], index->knn(set.queries, ks[i]), name + " k=" + std::to_string(ks[i]));
+      for (std::size_t i = 0; i < radii.size(); ++i) {
+        const RadiusResult& expected = within[i];
+        const RadiusResult actual = index->radius(set.queries, radii[i]);
+        EXPECT_EQ(expected.offsets, actual.offsets) << name << " r=" << radii[i];
+        EXPECT_EQ(expected.distances, actual.distances) << name << " r=" << radii[i];
         // Ties aside, the same points: the index sets agree per query.
         for (std::size_t q = 0; q < expected.queries(); ++q) {
           const auto e = expected.indices_of(q), a = actual.indices_of(q);
-          ASSERT_EQ(std::set<std::uint32_t>(e.begin(), e.end()),
-                    std::set<std::uint32_t>(a.begin(), a.end()))
+          ASSERT_EQ(std::set<std::uint32_t>(e.begin(), e.end()), std::set<std::uint32_t>(a.begin(), a.end()))
               << name << " query " << q;
         }
       }
@@ -197,7 +203,9 @@ TEST(KnnTest, TheFactoryBuildsEveryNameAndTheyAgree) {
     EXPECT_GE(index->build_ms(), 0.0);
     const NeighborSummary actual = summarize(index->knn(queries, 8));
     EXPECT_EQ(actual.dist_sum, expected.dist_sum) << name;
-    if (name != "nanoflann" && name != "flann") EXPECT_EQ(actual.checksum, expected.checksum) << name;
+    if (name != "nanoflann" && name != "flann") {
+      EXPECT_EQ(actual.checksum, expected.checksum) << name;
+    }
   }
 }
 
@@ -300,14 +308,14 @@ TEST(KnnTest, PointInLeafFindsThePointsOwnLeaf) {
 }
 
 TEST(KnnTest, DegenerateInputs) {
-  const std::vector<Vec3> same(300, Vec3(1, 2, 3));
-  const std::vector<Vec3> one{Vec3(5, 5, 5)};
+  std::vector<Vec3> same(300, Vec3(1, 2, 3));
+  std::vector<Vec3> one{Vec3(5, 5, 5)};
   std::vector<Vec3> plane, line;
   for (int i = 0; i < 40; ++i)
     for (int j = 0; j < 40; ++j) plane.push_back({static_cast<float>(i), static_cast<float>(j), 0});
   for (int i = 0; i < 500; ++i) line.push_back({0, static_cast<float>(i % 250) * 0.5f, 0});
   const std::vector<Vec3> queries{Vec3(1, 2, 3), Vec3(0, 0, 0), Vec3(10.5f, 3.25f, 1), Vec3(-5, 100, 2)};
-  for (const auto* points : {&same, &one, &plane, &line}) {
+  for (const std::vector<Vec3>* points : {&same, &one, &plane, &line}) {
     for (const std::string& builder : kOurBuilders) {
       const PointTree tree(*points, {.builder = builder, .leaf_size = 2});
       const int k = std::min<int>(5, static_cast<int>(points->size()));

@@ -10,5 +10,6 @@ void add_build_command(CLI::App& app);
 void add_trace_command(CLI::App& app);
 void add_bench_command(CLI::App& app);
 void add_knn_command(CLI::App& app);
+void add_animate_command(CLI::App& app);
 
 }  // namespace splitray::app

@@ -33,7 +33,9 @@ int main(int argc, char** argv) {
   splitray::app::add_render_command(app);
   splitray::app::add_build_command(app);
   splitray::app::add_trace_command(app);
+  splitray::app::add_knn_command(app);
   splitray::app::add_bench_command(app);
+  splitray::app::add_animate_command(app);
 
   try {
     // Name an unknown command rather than only saying that a command is required.

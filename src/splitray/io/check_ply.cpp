@@ -143,7 +143,7 @@ struct FaceCheck {
   void corners(std::uint64_t face, double n) const {
     if (n < 3)
       throw Error(where, "PLY face " + std::to_string(face) + " has " + std::to_string(std::int64_t(n)) +
-                             " vertices; a face needs at least 3");
+                             " vertices; a face needs at least 3 (do the header's counts match the data?)");
   }
   void index(std::uint64_t face, double i) const {
     if (!(i >= 0 && i < double(vertices)))

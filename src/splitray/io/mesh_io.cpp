@@ -16,14 +16,17 @@
 #include "splitray/io/format_checks.hpp"
 #include "splitray/io/read_file.hpp"
 #include "splitray/io/scene_json.hpp"
+#include "splitray/io/triangulate.hpp"
 
 namespace splitray {
 namespace {
 
-// Sanity limits against hostile node graphs that instance one mesh without end.
+// Sanity limits against hostile node graphs that instance one mesh without end, and against
+// polygons built to make ear clipping slow (about a second of work).
 constexpr std::size_t kMaxTriangles = std::size_t{1} << 28;
 constexpr std::size_t kMaxNodeVisits = 10'000'000;
 constexpr int kMaxNodeDepth = 1000;
+constexpr std::uint64_t kMaxTriangulationWork = 500'000'000;
 
 bool finite(const aiVector3D& v) {
   return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
@@ -124,12 +127,28 @@ class Merger {
     const auto base = static_cast<std::uint32_t>(part.first_vertex);
     for (unsigned f = 0; f < in.mNumFaces; ++f) {
       const aiFace& face = in.mFaces[f];
-      if (face.mNumIndices != 3) {  // points and lines: not surfaces
+      if (face.mNumIndices < 3) {  // points and lines: not surfaces
         ++skipped_;
         continue;
       }
-      mesh_.faces.push_back({base + face.mIndices[0], base + face.mIndices[1], base + face.mIndices[2]});
-      ++part.face_count;
+      if (face.mNumIndices == 3) {
+        mesh_.faces.push_back({base + face.mIndices[0], base + face.mIndices[1], base + face.mIndices[2]});
+        ++part.face_count;
+        continue;
+      }
+      // Quads and polygons, in the mesh's own space (the node transform is affine).
+      corners_.clear();
+      for (unsigned k = 0; k < face.mNumIndices; ++k) {
+        const aiVector3D& v = in.mVertices[face.mIndices[k]];
+        corners_.push_back({v.x, v.y, v.z});
+      }
+      local_.clear();
+      work_ += triangulate_polygon(corners_, local_);
+      if (work_ > kMaxTriangulationWork)
+        throw Error(path_, "the polygons are too large or contorted to triangulate in reasonable time");
+      for (const auto& t : local_)
+        mesh_.faces.push_back({base + face.mIndices[t[0]], base + face.mIndices[t[1]], base + face.mIndices[t[2]]});
+      part.face_count += local_.size();
     }
     if (mesh_.faces.size() > kMaxTriangles)
       throw Error(path_, "more than " + std::to_string(kMaxTriangles) +
@@ -157,6 +176,9 @@ class Merger {
   Mesh mesh_;
   std::vector<Part> parts_;
   std::size_t skipped_ = 0;
+  std::vector<Vec3> corners_;
+  std::vector<std::array<std::uint32_t, 3>> local_;
+  std::uint64_t work_ = 0;
 };
 
 // assimp's messages may quote pages of the file: keep them short and on one line.
@@ -167,10 +189,14 @@ std::string clean(std::string message) {
   return message;
 }
 
+// Triangles in assimp's meshes once polygons are triangulated (n corners: n - 2).
 std::size_t count_triangles(const aiScene& scene) {
   std::size_t n = 0;
   for (unsigned m = 0; m < scene.mNumMeshes; ++m)
-    for (unsigned f = 0; f < scene.mMeshes[m]->mNumFaces; ++f) n += scene.mMeshes[m]->mFaces[f].mNumIndices == 3;
+    for (unsigned f = 0; f < scene.mMeshes[m]->mNumFaces; ++f) {
+      const unsigned corners = scene.mMeshes[m]->mFaces[f].mNumIndices;
+      n += corners >= 3 ? corners - 2 : 0;
+    }
   return n;
 }
 
@@ -214,18 +240,16 @@ Mesh load_mesh(const std::string& path) {
   if ((scene->mFlags & AI_SCENE_FLAGS_INCOMPLETE) || scene->mNumMeshes == 0)
     throw Error(path, "the file holds no meshes");
   check_finite(*scene, path);
-  // Triangulate (quads, polygons) and share identical vertices. Deliberately absent:
-  // FindDegenerates (degenerate triangles are valid input), PreTransformVertices (the
-  // Merger applies the node graph itself).
-  scene = import(importer, name,
-                 aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_ValidateDataStructure,
+  // Share identical vertices. Deliberately absent: Triangulate (wrong for some concave
+  // polygons in assimp 5.2; the Merger triangulates), FindDegenerates (degenerate triangles
+  // are valid input), PreTransformVertices (the Merger applies the node graph itself).
+  scene = import(importer, name, aiProcess_JoinIdenticalVertices | aiProcess_ValidateDataStructure,
                  path, true);
 
   if (expected && *expected != count_triangles(*scene))
     throw Error(path, "the file describes " + std::to_string(*expected) + " triangles but assimp made " +
                           std::to_string(count_triangles(*scene)) +
-                          " of them (an index out of range, or a polygon that is not simple?); "
-                          "refusing a changed mesh");
+                          " of them (it dropped faces with an index out of range?); refusing a changed mesh");
 
   Mesh mesh = Merger(*scene, path).run();
   mesh.name = path;

@@ -126,7 +126,8 @@ Transform parse_step(const Reader& r, const json& j, const std::string& where) {
   r.object(j, where, {"translate", "rotate", "scale", "matrix"});
   if (j.size() != 1)
     r.fail(where, "a transform step has exactly one of translate, rotate, scale, matrix");
-  const auto& [key, value] = *j.items().begin();
+  const std::string key = j.begin().key();
+  const json& value = j.begin().value();
   const std::string at = key_path(where, key);
   if (key == "translate") return Transform::translate(r.vec3(value, at));
   if (key == "rotate") {

@@ -20,6 +20,7 @@ namespace {
 
 constexpr std::size_t kTaskRefs = 4096;
 constexpr int kMaxSpatialBins = 256;
+constexpr double kGrowth = 2.0;  // at most twice as many references as input
 
 struct SpatialSplit {
   int axis = -1;
@@ -43,11 +44,12 @@ class SbvhBuilder {
   SbvhBuilder(std::span<const Triangle> triangles, const BvhBuildOptions& options, const Aabb& root)
       : tris_(triangles), options_(options), min_overlap_(options.sbvh_alpha * root.half_area()) {}
 
-  std::unique_ptr<BvhPiece> build_piece(std::vector<PrimRef> refs, const RefBounds& bounds, int depth) {
+  std::unique_ptr<BvhPiece> build_piece(std::vector<PrimRef> refs, const RefBounds& bounds, int depth,
+                                        std::size_t budget) {
     auto piece = std::make_unique<BvhPiece>();
     piece->nodes.resize(1);
     std::uint64_t evals = 0;
-    build(*piece, 0, refs, bounds, depth, evals);
+    build(*piece, 0, refs, bounds, depth, budget, evals);
     evals_ += evals;
     return piece;
   }
@@ -157,15 +159,17 @@ class SbvhBuilder {
     return !left.empty() && !right.empty();
   }
 
+  // `budget` bounds the references this subtree may hold (spatial splits add some), so that
+  // the total stays within kGrowth times the input and the recursion always shrinks.
   void build(BvhPiece& piece, std::size_t slot, std::vector<PrimRef>& refs, const RefBounds& bounds, int depth,
-             std::uint64_t& evals) {
+             std::size_t budget, std::uint64_t& evals) {
     const std::size_t n = refs.size();
     if (n <= static_cast<std::size_t>(options_.min_leaf) || depth >= options_.max_depth)
       return make_leaf(piece, slot, refs, bounds.box);
 
     const ObjectSplit object = find_object_split(refs, bounds, options_, evals);
     SpatialSplit spatial;
-    if (object.axis < 0 || intersection(object.left, object.right).half_area() > min_overlap_)
+    if (budget > n && (object.axis < 0 || intersection(object.left, object.right).half_area() > min_overlap_))
       spatial = find_spatial_split(refs, bounds.box, evals);
     const float best_cost = std::min(object.axis >= 0 ? object.cost : std::numeric_limits<float>::infinity(),
                                      spatial.cost);
@@ -178,7 +182,8 @@ class SbvhBuilder {
     int axis = 0;
     bool done = false;
     if (spatial.axis >= 0 && (object.axis < 0 || spatial.cost < object.cost)) {
-      done = spatial_partition(refs, spatial, left, right);
+      done = spatial_partition(refs, spatial, left, right) && left.size() < n && right.size() < n &&
+             left.size() + right.size() <= budget;
       if (done) {
         axis = spatial.axis;
         left_bounds = ref_bounds(left);
@@ -200,19 +205,24 @@ class SbvhBuilder {
       right.assign(refs.begin() + static_cast<std::ptrdiff_t>(n_left), refs.end());
     }
     std::vector<PrimRef>().swap(refs);  // release the parent's references before recursing
+    // The spare budget goes to the children in proportion to their references.
+    const std::size_t used = left.size() + right.size(), spare = budget > used ? budget - used : 0;
+    const std::size_t left_budget = left.size() + static_cast<std::size_t>(
+                                                      static_cast<double>(spare) * static_cast<double>(left.size()) / static_cast<double>(used));
+    const std::size_t right_budget = std::max(used + spare - left_budget, right.size());
 
     if (slot == 0 && piece.nodes.size() == 1 && n >= kTaskRefs) {
       piece.nodes[0] = BvhNode::make_interior(bounds.box, axis);
       tbb::parallel_invoke(
-          [&] { piece.kids[0] = build_piece(std::move(left), left_bounds, depth + 1); },
-          [&] { piece.kids[1] = build_piece(std::move(right), right_bounds, depth + 1); });
+          [&] { piece.kids[0] = build_piece(std::move(left), left_bounds, depth + 1, left_budget); },
+          [&] { piece.kids[1] = build_piece(std::move(right), right_bounds, depth + 1, right_budget); });
       return;
     }
     const auto pair = static_cast<std::uint32_t>(piece.nodes.size());
     piece.nodes.resize(pair + 2);
     piece.nodes[slot] = BvhNode::make_interior(bounds.box, axis, pair);
-    build(piece, pair, left, left_bounds, depth + 1, evals);
-    build(piece, pair + 1, right, right_bounds, depth + 1, evals);
+    build(piece, pair, left, left_bounds, depth + 1, left_budget, evals);
+    build(piece, pair + 1, right, right_bounds, depth + 1, right_budget, evals);
   }
 
   std::span<const Triangle> tris_;
@@ -228,7 +238,8 @@ BvhBuildResult build_bvh_sbvh(std::span<const Triangle> triangles, std::vector<P
   const RefBounds bounds = ref_bounds(refs);
   SbvhBuilder builder(triangles, options, bounds.box);
   BvhBuildResult result;
-  result.root = builder.build_piece(std::move(refs), bounds, 0);
+  const std::size_t budget = static_cast<std::size_t>(kGrowth * static_cast<double>(refs.size()));
+  result.root = builder.build_piece(std::move(refs), bounds, 0, budget);
   result.cost_evals = builder.evals();
   return result;
 }

@@ -1,14 +1,10 @@
 #pragma once
 // Perfect-split clipping for the fast builders, which re-clip every straddling triangle at
-// every split (their hot spot).
-//
-// clip_triangle_bounds_fast: clip_triangle_bounds (clip.hpp), faster and with the same
-// result (tested on real meshes): the planes of the box the triangle does not cross leave
-// the polygon unchanged in Sutherland-Hodgman clipping, so they are skipped, and a
-// triangle inside the box is returned at once.
-//
-// clip_triangle_split: both children's bounds of a straddler at once, by clipping to the
-// parent cell and cutting that polygon with the split plane (half the work of two clips).
+// every split (their hot spot): clip_triangle_bounds (clip.hpp), faster and with the same
+// result (tested on real meshes), so all kd builders see the same clipped bounds. The planes
+// of the box that the triangle does not cross leave the polygon unchanged in
+// Sutherland-Hodgman clipping, so they are skipped, and a triangle inside the box is
+// returned at once.
 #include <array>
 
 #include "splitray/core/triangle.hpp"
@@ -27,7 +23,9 @@ inline int clip_triangle_polygon(const Triangle& triangle, const Aabb& bounds, c
       const float plane = side == 0 ? box.lo[axis] : box.hi[axis];
       // The triangle (hence the polygon, a part of it) is inside this plane: no change.
       if (side == 0 ? bounds.lo[axis] > plane : bounds.hi[axis] < plane) continue;
-      const auto inside = [&](const Vec3& p) { return side == 0 ? p[axis] >= plane : p[axis] <= plane; };
+      const auto inside = [&](const Vec3& p) {
+        return side == 0 ? p[axis] >= plane : p[axis] <= plane;
+      };
       int out = 0;
       for (int i = 0; i < count; ++i) {
         const Vec3& a = poly[i];
@@ -60,43 +58,6 @@ inline Aabb clip_triangle_bounds_fast(const Triangle& triangle, const Aabb& box)
   for (int i = 0; i < count; ++i) clipped.extend(poly[i]);
   clipped = intersection(clipped, box);
   return clipped.empty() ? overlap : clipped;
-}
-
-// The bounds of triangle ∩ below_cell and triangle ∩ above_cell, the two halves of `cell`
-// at `position` on `axis`, for a triangle that straddles the plane. Like clip.hpp, never
-// empty where the triangle's bounds reach into a half (the overlap is the fallback).
-inline void clip_triangle_split(const Triangle& triangle, const Aabb& cell, int axis, float position,
-                                Aabb& below, Aabb& above) {
-  Aabb below_cell = cell, above_cell = cell;
-  below_cell.hi[axis] = position;
-  above_cell.lo[axis] = position;
-  const Aabb bounds = triangle.bounds();
-  std::array<Vec3, 9> poly;
-  int count = 3;
-  const Aabb overlap = intersection(bounds, cell);
-  if (overlap.lo == bounds.lo && overlap.hi == bounds.hi) {
-    poly[0] = triangle.v0, poly[1] = triangle.v1, poly[2] = triangle.v2;
-  } else {
-    count = clip_triangle_polygon(triangle, bounds, cell, poly);
-  }
-  Aabb b, a;
-  for (int i = 0; i < count; ++i) {
-    const Vec3& p = poly[i];
-    const Vec3& q = poly[(i + 1) % count];
-    if (p[axis] <= position) b.extend(p);
-    if (p[axis] >= position) a.extend(p);
-    if ((p[axis] < position && q[axis] > position) || (p[axis] > position && q[axis] < position)) {
-      const float t = (position - p[axis]) / (q[axis] - p[axis]);
-      Vec3 x = p + (q - p) * t;
-      x[axis] = position;
-      b.extend(x);
-      a.extend(x);
-    }
-  }
-  below = intersection(b, below_cell);
-  above = intersection(a, above_cell);
-  if (below.empty()) below = intersection(bounds, below_cell);
-  if (above.empty()) above = intersection(bounds, above_cell);
 }
 
 }  // namespace splitray

@@ -27,8 +27,8 @@ struct AxisBins {
 };
 
 // Histograms [axis][lo / hi][bins] of the bins of the primitives' lower and upper bounds.
-void bin_prims(std::span<const PrimRef> prims, const AxisBins* axes, const bool* active, std::uint32_t* hist,
-               std::size_t bins) {
+void bin_prims(std::span<const PrimRef> prims, const AxisBins* axes, const bool* active,
+               std::uint32_t* hist, std::size_t bins) {
   for (int a = 0; a < 3; ++a) {
     if (!active[a]) continue;
     std::uint32_t* h_lo = hist + 2 * a * bins;
@@ -50,7 +50,8 @@ Side side_of(const Aabb& b, int axis, float position, bool planar_below) {
   return kAbove;
 }
 
-void count_sides(std::span<const PrimRef> prims, const BinnedSplit& split, std::size_t& below, std::size_t& above) {
+void count_sides(std::span<const PrimRef> prims, const BinnedSplit& split, std::size_t& below,
+                 std::size_t& above) {
   below = above = 0;
   for (const PrimRef& r : prims) {
     const Side s = side_of(r.bounds, split.axis, split.position, split.planar_below);
@@ -86,7 +87,8 @@ BinnedSplit find_binned_split(std::span<const PrimRef> prims, const Aabb& cell, 
     std::vector<std::uint32_t> partial(chunks * 6 * stride, 0u);
     tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
       const std::size_t begin = c * kChunk, end = std::min(prims.size(), begin + kChunk);
-      bin_prims(prims.subspan(begin, end - begin), axes, active, partial.data() + c * 6 * stride, stride);
+      bin_prims(prims.subspan(begin, end - begin), axes, active, partial.data() + c * 6 * stride,
+                stride);
     });
     for (std::size_t c = 0; c < chunks; ++c)  // integer sums: the same in any order
       for (std::size_t i = 0; i < 6 * stride; ++i) hist[i] += partial[c * 6 * stride + i];
@@ -101,8 +103,8 @@ BinnedSplit find_binned_split(std::span<const PrimRef> prims, const Aabb& cell, 
   BinnedSplit best;
   best.cost = std::numeric_limits<double>::infinity();
   const std::size_t n = prims.size();
-  const auto consider = [&](int axis, float position, std::size_t below, std::size_t above, bool planar_below,
-                            const KdAxisCost& axis_cost) {
+  const auto consider = [&](int axis, float position, std::size_t below, std::size_t above,
+                            bool planar_below, const KdAxisCost& axis_cost) {
     if (!(position > cell.lo[axis] && position < cell.hi[axis])) return;
     const double c = axis_cost(position, below, above);
     ++best.evals;
@@ -142,7 +144,8 @@ BinnedSplit find_binned_split(std::span<const PrimRef> prims, const Aabb& cell, 
       const std::size_t begin = c * kChunk, end = std::min(n, begin + kChunk);
       count_sides(prims.subspan(begin, end - begin), best, counts[2 * c], counts[2 * c + 1]);
     });
-    for (std::size_t c = 0; c < chunks; ++c) best.n_below += counts[2 * c], best.n_above += counts[2 * c + 1];
+    for (std::size_t c = 0; c < chunks; ++c)
+      best.n_below += counts[2 * c], best.n_above += counts[2 * c + 1];
   } else {
     count_sides(prims, best, best.n_below, best.n_above);
   }
@@ -151,14 +154,19 @@ BinnedSplit find_binned_split(std::span<const PrimRef> prims, const Aabb& cell, 
   return best;
 }
 
-void partition_binned(std::span<const PrimRef> prims, std::span<const Triangle> triangles, const Aabb& cell,
-                      const BinnedSplit& split, std::span<PrimRef> below, std::span<PrimRef> above,
-                      Aabb& below_content, Aabb& above_content, bool parallel) {
+void partition_binned(std::span<const PrimRef> prims, std::span<const Triangle> triangles,
+                      const Aabb& cell, const BinnedSplit& split, std::span<PrimRef> below,
+                      std::span<PrimRef> above, Aabb& below_content, Aabb& above_content,
+                      bool parallel) {
   const int axis = split.axis;
   const float position = split.position;
   const bool planar_below = split.planar_below;
+  Aabb below_cell = cell, above_cell = cell;
+  below_cell.hi[axis] = position;
+  above_cell.lo[axis] = position;
   // Writes chunk [begin, end) from output offsets (ob, oa); returns the contents.
-  const auto write = [&](std::size_t begin, std::size_t end, std::size_t ob, std::size_t oa, Aabb& cb, Aabb& ca) {
+  const auto write = [&](std::size_t begin, std::size_t end, std::size_t ob, std::size_t oa,
+                         Aabb& cb, Aabb& ca) {
     for (std::size_t i = begin; i < end; ++i) {
       const PrimRef& r = prims[i];
       switch (side_of(r.bounds, axis, position, planar_below)) {
@@ -171,11 +179,12 @@ void partition_binned(std::span<const PrimRef> prims, std::span<const Triangle> 
           ca.extend(r.bounds);
           break;
         case kBoth: {
+          const Triangle& t = triangles[r.id];
           PrimRef& b = below[ob++];
-          PrimRef& a = above[oa++];
-          b.id = a.id = r.id;
-          clip_triangle_split(triangles[r.id], cell, axis, position, b.bounds, a.bounds);
+          b = {clip_triangle_bounds_fast(t, below_cell), r.id};
           cb.extend(b.bounds);
+          PrimRef& a = above[oa++];
+          a = {clip_triangle_bounds_fast(t, above_cell), r.id};
           ca.extend(a.bounds);
           break;
         }
@@ -191,7 +200,8 @@ void partition_binned(std::span<const PrimRef> prims, std::span<const Triangle> 
   std::vector<std::size_t> offsets(2 * (chunks + 1), 0);
   tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
     const std::size_t begin = c * kChunk, end = std::min(prims.size(), begin + kChunk);
-    count_sides(prims.subspan(begin, end - begin), split, offsets[2 * (c + 1)], offsets[2 * (c + 1) + 1]);
+    count_sides(prims.subspan(begin, end - begin), split, offsets[2 * (c + 1)],
+                offsets[2 * (c + 1) + 1]);
   });
   for (std::size_t c = 0; c < chunks; ++c) {
     offsets[2 * (c + 1)] += offsets[2 * c];

@@ -32,12 +32,12 @@ struct BinnedSplit {
 BinnedSplit find_binned_split(std::span<const PrimRef> prims, const Aabb& cell, const Aabb& content,
                               const KdSplitCost& cost, int bins, bool parallel);
 
-
 // Writes the primitives of the two children (sizes n_below / n_above of the split) in the parent's
 // order: straddlers go to both with bounds re-clipped to each child cell (perfect splits),
 // primitives in the plane go below if split.planar_below. Returns the children's contents.
-void partition_binned(std::span<const PrimRef> prims, std::span<const Triangle> triangles, const Aabb& cell,
-                      const BinnedSplit& split, std::span<PrimRef> below, std::span<PrimRef> above,
-                      Aabb& below_content, Aabb& above_content, bool parallel);
+void partition_binned(std::span<const PrimRef> prims, std::span<const Triangle> triangles,
+                      const Aabb& cell, const BinnedSplit& split, std::span<PrimRef> below,
+                      std::span<PrimRef> above, Aabb& below_content, Aabb& above_content,
+                      bool parallel);
 
 }  // namespace splitray

@@ -75,7 +75,8 @@ enum Side : std::uint8_t { kBelow = 1, kAbove = 2, kBoth = 3 };
 
 }  // namespace
 
-GoldenPrims::GoldenPrims(std::size_t prims, const EventCounts& counts, BumpArena* arena) : size_(prims) {
+GoldenPrims::GoldenPrims(std::size_t prims, const EventCounts& counts, BumpArena* arena)
+    : size_(prims) {
   std::size_t words = prims * (1 + sizeof(Aabb) / 4);
   for (const auto& axis : counts)
     for (const std::size_t c : axis) words += 2 * c;
@@ -111,7 +112,8 @@ AxisEvents GoldenPrims::axis_events(int axis) const {
   return {list(kStartEvent), list(kEndEvent), list(kPlaneEvent)};
 }
 
-GoldenPrims make_golden_prims(std::span<const Triangle> triangles, const Aabb& cell, bool parallel) {
+GoldenPrims make_golden_prims(std::span<const Triangle> triangles, const Aabb& cell,
+                              bool parallel) {
   std::vector<std::uint32_t> ids;
   std::vector<Aabb> bounds;
   ids.reserve(triangles.size());
@@ -135,7 +137,8 @@ GoldenPrims make_golden_prims(std::span<const Triangle> triangles, const Aabb& c
     keys.reserve(counts[axis][kind]);
     float pos;
     for (std::size_t i = 0; i < bounds.size(); ++i)
-      if (event_of(bounds[i], axis, kind, pos)) keys.push_back(event_key(pos, static_cast<std::uint32_t>(i)));
+      if (event_of(bounds[i], axis, kind, pos))
+        keys.push_back(event_key(pos, static_cast<std::uint32_t>(i)));
     sort_events(keys.data(), keys.size());
     const EventSpan& e = prims.events(axis, kind);
     for (std::size_t j = 0; j < keys.size(); ++j) {
@@ -156,7 +159,8 @@ namespace {
 // Temporary arrays of a split: from the scratch arena when there is one, else the heap.
 class Scratch {
  public:
-  explicit Scratch(BumpArena* arena) : arena_(arena), mark_(arena ? arena->mark() : BumpArena::Mark{}) {}
+  explicit Scratch(BumpArena* arena)
+      : arena_(arena), mark_(arena ? arena->mark() : BumpArena::Mark{}) {}
   ~Scratch() {
     if (arena_) arena_->release(mark_);
   }
@@ -189,21 +193,27 @@ void split_golden_prims(GoldenPrims& node, std::span<const Triangle> triangles, 
   const auto classify = [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
       const float lo = bounds[i].lo[axis], hi = bounds[i].hi[axis];
-      if (lo == position && hi == position) side[i] = planar_below ? kBelow : kAbove;
-      else if (lo < position && hi > position) side[i] = kBoth;
-      else if (lo < position) side[i] = kBelow;
-      else side[i] = kAbove;
+      if (lo == position && hi == position)
+        side[i] = planar_below ? kBelow : kAbove;
+      else if (lo < position && hi > position)
+        side[i] = kBoth;
+      else if (lo < position)
+        side[i] = kBelow;
+      else
+        side[i] = kAbove;
     }
   };
-  if (parallel) parallel_chunks(n, kParallelGrain, classify);
-  else classify(0, n);
+  if (parallel)
+    parallel_chunks(n, kParallelGrain, classify);
+  else
+    classify(0, n);
 
   // 2. Indices within the children (parent order kept): remap[i] is the index of a
   // one-sided primitive in its child; straddlers are listed apart with both indices.
   std::uint32_t* remap = scratch.get<std::uint32_t>(n);
   std::size_t n_straddlers = 0;
   for (std::size_t i = 0; i < n; ++i) n_straddlers += side[i] == kBoth;
-  std::uint32_t* straddlers = scratch.get<std::uint32_t>(n_straddlers);       // parent index
+  std::uint32_t* straddlers = scratch.get<std::uint32_t>(n_straddlers);           // parent index
   std::uint32_t* straddler_index = scratch.get<std::uint32_t>(2 * n_straddlers);  // below, above
   std::size_t n_below = 0, n_above = 0, s = 0;
   for (std::size_t i = 0; i < n; ++i) {
@@ -218,20 +228,28 @@ void split_golden_prims(GoldenPrims& node, std::span<const Triangle> triangles, 
   }
 
   // 3. Straddlers, re-clipped to each child cell.
+  Aabb below_cell = cell, above_cell = cell;
+  below_cell.hi[axis] = position;
+  above_cell.lo[axis] = position;
   Aabb* clipped = scratch.get<Aabb>(2 * n_straddlers);  // below, above
   const auto clip = [&](std::size_t begin, std::size_t end) {
     for (std::size_t k = begin; k < end; ++k) {
-      clip_triangle_split(triangles[ids[straddlers[k]]], cell, axis, position, clipped[2 * k], clipped[2 * k + 1]);
+      const Triangle& t = triangles[ids[straddlers[k]]];
+      clipped[2 * k] = clip_triangle_bounds_fast(t, below_cell);
+      clipped[2 * k + 1] = clip_triangle_bounds_fast(t, above_cell);
     }
   };
-  if (parallel) parallel_chunks(n_straddlers, 256, clip);
-  else clip(0, n_straddlers);
+  if (parallel)
+    parallel_chunks(n_straddlers, 256, clip);
+  else
+    clip(0, n_straddlers);
 
   // 4. The children's ids, bounds and event counts (none for a child that will be a leaf).
   const bool events[2] = {n_below > options.events_from, n_above > options.events_from};
   EventCounts counts[2] = {};
   for (std::size_t i = 0; i < n; ++i)
-    if (side[i] != kBoth && events[side[i] == kAbove]) count_events(bounds[i], counts[side[i] == kAbove]);
+    if (side[i] != kBoth && events[side[i] == kAbove])
+      count_events(bounds[i], counts[side[i] == kAbove]);
   for (std::size_t k = 0; k < n_straddlers; ++k)
     for (int c = 0; c < 2; ++c)
       if (events[c]) count_events(clipped[2 * k + c], counts[c]);
@@ -278,7 +296,8 @@ void split_golden_prims(GoldenPrims& node, std::span<const Triangle> triangles, 
       std::size_t m = 0;
       float pos;
       for (std::size_t k = 0; k < n_straddlers; ++k)
-        if (event_of(clipped[2 * k + c], ax, kind, pos)) extra[m++] = event_key(pos, straddler_index[2 * k + c]);
+        if (event_of(clipped[2 * k + c], ax, kind, pos))
+          extra[m++] = event_key(pos, straddler_index[2 * k + c]);
       sort_events(extra, m);
       // Merge from the back, in place.
       std::size_t out = f[c] + m, a = f[c], b = m;

@@ -39,7 +39,10 @@ class GoldenPrims {
   std::span<Aabb> bounds() const { return {bounds_, size_}; }
   const EventSpan& events(int axis, int kind) const { return events_[axis][kind]; }
   AxisEvents axis_events(int axis) const;
-  void release() { storage_.reset(); size_ = 0; }
+  void release() {
+    storage_.reset();
+    size_ = 0;
+  }
 
  private:
   std::unique_ptr<std::byte[]> storage_;
@@ -53,10 +56,10 @@ class GoldenPrims {
 GoldenPrims make_golden_prims(std::span<const Triangle> triangles, const Aabb& cell, bool parallel);
 
 struct GoldenSplitOptions {
-  bool parallel = false;            // split the lists of a large node in parallel
-  BumpArena* nodes = nullptr;       // where the children's arrays go (else the heap)
-  BumpArena* scratch = nullptr;     // temporary arrays, released on return (else the heap)
-  std::size_t events_from = 0;      // children with at most this many prims get no events
+  bool parallel = false;         // split the lists of a large node in parallel
+  BumpArena* nodes = nullptr;    // where the children's arrays go (else the heap)
+  BumpArena* scratch = nullptr;  // temporary arrays, released on return (else the heap)
+  std::size_t events_from = 0;   // children with at most this many prims get no events
 };
 
 // Splits `node` (released on return) at `position` on `axis` into the primitives of the

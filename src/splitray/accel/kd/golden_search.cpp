@@ -16,7 +16,9 @@ std::size_t count_less(std::span<const float> v, float p) {
 std::size_t count_less_equal(std::span<const float> v, float p) {
   return static_cast<std::size_t>(std::upper_bound(v.begin(), v.end(), p) - v.begin());
 }
-bool contains(std::span<const float> v, float p) { return std::binary_search(v.begin(), v.end(), p); }
+bool contains(std::span<const float> v, float p) {
+  return std::binary_search(v.begin(), v.end(), p);
+}
 
 // Deterministic order of candidates: cost, then position.
 bool better(const SplitCandidate& a, const SplitCandidate& b) {
@@ -25,8 +27,8 @@ bool better(const SplitCandidate& a, const SplitCandidate& b) {
 
 // The cost of a split with `below` / `above` primitives on either side and `planar` in the
 // plane, which go to the cheaper side (ties: below).
-SplitCandidate cost_split(const KdAxisCost& cost, float position, std::size_t below, std::size_t above,
-                          std::size_t planar, std::uint32_t& evals) {
+SplitCandidate cost_split(const KdAxisCost& cost, float position, std::size_t below,
+                          std::size_t above, std::size_t planar, std::uint32_t& evals) {
   SplitCandidate c;
   c.position = position;
   c.n_below = below + planar;
@@ -47,7 +49,8 @@ SplitCandidate cost_split(const KdAxisCost& cost, float position, std::size_t be
 }
 
 // The counts at `position` by binary search, and the cost.
-SplitCandidate count_and_cost(const AxisEvents& events, const KdAxisCost& cost, float position, std::uint32_t& evals) {
+SplitCandidate count_and_cost(const AxisEvents& events, const KdAxisCost& cost, float position,
+                              std::uint32_t& evals) {
   const std::size_t planes_below = count_less(events.planes, position);
   const std::size_t planes_at = count_less_equal(events.planes, position) - planes_below;
   const std::size_t below = count_less(events.starts, position) + planes_below;
@@ -97,7 +100,10 @@ void brent(Probe& f, double a, double b, double x, double fx, double tol_abs, in
       double q = (x - v) * (fx - fw);
       double p = (x - v) * q - (x - w) * r;
       q = 2 * (q - r);
-      if (q > 0) p = -p; else q = -q;
+      if (q > 0)
+        p = -p;
+      else
+        q = -q;
       const double e_prev = e;
       e = d;
       if (std::fabs(p) < std::fabs(0.5 * q * e_prev) && p > q * (a - x) && p < q * (b - x)) {
@@ -114,17 +120,29 @@ void brent(Probe& f, double a, double b, double x, double fx, double tol_abs, in
     const double u = std::fabs(d) >= tol ? x + d : x + (d > 0 ? tol : -tol);
     const double fu = f(u);
     if (fu <= fx) {
-      if (u < x) b = x; else a = x;
-      v = w; fv = fw;
-      w = x; fw = fx;
-      x = u; fx = fu;
+      if (u < x)
+        b = x;
+      else
+        a = x;
+      v = w;
+      fv = fw;
+      w = x;
+      fw = fx;
+      x = u;
+      fx = fu;
     } else {
-      if (u < x) a = u; else b = u;
+      if (u < x)
+        a = u;
+      else
+        b = u;
       if (fu <= fw || w == x) {
-        v = w; fv = fw;
-        w = u; fw = fu;
+        v = w;
+        fv = fw;
+        w = u;
+        fw = fu;
       } else if (fu <= fv || v == x || v == w) {
-        v = u; fv = fu;
+        v = u;
+        fv = fu;
       }
     }
   }
@@ -134,7 +152,8 @@ void brent(Probe& f, double a, double b, double x, double fx, double tol_abs, in
 // it, so a probe between events is never better than the better of its two neighbours.
 void snap_to_events(const AxisEvents& events, Probe& f, float x) {
   const std::span<const float> lists[3] = {events.starts, events.ends, events.planes};
-  float prev = -std::numeric_limits<float>::infinity(), next = std::numeric_limits<float>::infinity();
+  float prev = -std::numeric_limits<float>::infinity(),
+        next = std::numeric_limits<float>::infinity();
   for (const auto& list : lists) {
     if (contains(list, x)) return;  // already an event
     const auto it = std::lower_bound(list.begin(), list.end(), x);
@@ -155,44 +174,84 @@ SplitCandidate evaluate_split(const AxisEvents& events, const Aabb& cell, int ax
 GoldenSearchResult exhaustive_search_axis(const AxisEvents& events, const Aabb& cell, int axis,
                                           const KdSplitCost& cost, float lo, float hi) {
   // One sweep over the three sorted lists, keeping the counts on either side current.
+  // (The hot loop of small nodes: plain indices, and the candidate kept as scalars.)
   GoldenSearchResult result;
-  const std::span<const float> lists[3] = {events.starts, events.ends, events.planes};
-  std::size_t at[3] = {0, 0, 0};
-  std::size_t below = 0, above = events.ends.size() + events.planes.size();
+  const float* starts = events.starts.data();
+  const float* ends = events.ends.data();
+  const float* planes = events.planes.data();
+  const std::size_t n_starts = events.starts.size(), n_ends = events.ends.size(),
+                    n_planes = events.planes.size();
   const KdAxisCost axis_cost(cost, cell, axis);
+  const float cell_lo = cell.lo[axis], cell_hi = cell.hi[axis];
+  std::size_t i = 0, j = 0, k = 0;
+  std::size_t below = 0, above = n_ends + n_planes;
+  double best = kInf;
+  float best_position = 0;
+  std::size_t best_below = 0, best_above = 0;
+  bool best_planar_below = true;
+  std::uint32_t evals = 0;
+  const auto consider = [&](float p, std::size_t n_below, std::size_t n_above, bool planar_below) {
+    const double c = axis_cost(p, n_below, n_above);
+    ++evals;
+    if (c < best) {
+      best = c;
+      best_position = p;
+      best_below = n_below;
+      best_above = n_above;
+      best_planar_below = planar_below;
+    }
+  };
+  constexpr float kNone = std::numeric_limits<float>::infinity();
   while (true) {
-    float p = std::numeric_limits<float>::infinity();
-    for (int k = 0; k < 3; ++k)
-      if (at[k] < lists[k].size()) p = std::min(p, lists[k][at[k]]);
+    float p = i < n_starts ? starts[i] : kNone;
+    if (j < n_ends && ends[j] < p) p = ends[j];
+    if (k < n_planes && planes[k] < p) p = planes[k];
     if (!(p <= hi)) break;
-    std::size_t n[3];
-    for (int k = 0; k < 3; ++k) {
-      const std::size_t first = at[k];
-      while (at[k] < lists[k].size() && lists[k][at[k]] == p) ++at[k];
-      n[k] = at[k] - first;
+    const std::size_t i0 = i, j0 = j, k0 = k;
+    while (i < n_starts && starts[i] == p) ++i;
+    while (j < n_ends && ends[j] == p) ++j;
+    while (k < n_planes && planes[k] == p) ++k;
+    const std::size_t planar = k - k0;
+    above -= (j - j0) + planar;
+    if (p >= lo && p > cell_lo && p < cell_hi) {
+      consider(p, below + planar, above, true);
+      if (planar > 0) consider(p, below, above + planar, false);
     }
-    above -= n[1] + n[2];
-    if (p >= lo && p > cell.lo[axis] && p < cell.hi[axis]) {
-      const SplitCandidate c = cost_split(axis_cost, p, below, above, n[2], result.evals);
-      if (better(c, result.best)) result.best = c;
-    }
-    below += n[0] + n[2];
+    below += (i - i0) + planar;
+  }
+  result.evals = evals;
+  if (best < kInf) {
+    result.best.position = best_position;
+    result.best.cost = best;
+    result.best.n_below = best_below;
+    result.best.n_above = best_above;
+    result.best.planar_below = best_planar_below;
   }
   return result;
 }
 
 GoldenSearchResult golden_search_axis(const AxisEvents& events, const Aabb& cell, int axis,
                                       const KdSplitCost& cost, float lo, float hi,
-                                      std::optional<float> start, const GoldenSearchOptions& options) {
+                                      std::optional<float> start,
+                                      const GoldenSearchOptions& options) {
   lo = std::max(lo, cell.lo[axis]);
   hi = std::min(hi, cell.hi[axis]);
   if (!(lo < hi) || events.events() == 0) return {};
-  if (events.events() <= options.exhaustive_events) return exhaustive_search_axis(events, cell, axis, cost, lo, hi);
+  const double width = static_cast<double>(hi) - lo;
+  const double tol = options.tolerance * width;
+  const auto flag_edge = [&](GoldenSearchResult& r) {
+    const float p = r.best.position;
+    r.at_bracket_edge = r.best.valid() && ((lo > cell.lo[axis] && p <= lo + 2 * tol) ||
+                                           (hi < cell.hi[axis] && p >= hi - 2 * tol));
+  };
+  if (events.events() <= options.exhaustive_events) {
+    GoldenSearchResult r = exhaustive_search_axis(events, cell, axis, cost, lo, hi);
+    flag_edge(r);
+    return r;
+  }
 
   GoldenSearchResult result;
   Probe f(events, cell, axis, cost, result);
-  const double width = static_cast<double>(hi) - lo;
-  const double tol = options.tolerance * width;
   double a = lo, b = hi, x, fx;
   if (start) {
     x = std::clamp(static_cast<double>(*start), a + 0.5 * tol, b - 0.5 * tol);
@@ -223,11 +282,8 @@ GoldenSearchResult golden_search_axis(const AxisEvents& events, const Aabb& cell
     fx = best_cost;
   }
   brent(f, a, b, x, fx, tol, options.max_iterations);
-  if (result.best.valid()) {
-    snap_to_events(events, f, result.best.position);
-    const float p = result.best.position;
-    result.at_bracket_edge = (lo > cell.lo[axis] && p <= lo + 2 * tol) || (hi < cell.hi[axis] && p >= hi - 2 * tol);
-  }
+  if (result.best.valid()) snap_to_events(events, f, result.best.position);
+  flag_edge(result);
   return result;
 }
 

@@ -39,8 +39,9 @@ class KdAxisCost {
     const double p_below = (cap_ + below * ring_) * inv_area_;
     const double p_above = (cap_ + above * ring_) * inv_area_;
     const double lambda = (n_below == 0 || n_above == 0) ? cost_.empty_factor : 1.0;
-    return lambda * (cost_.traversal + cost_.intersection * (p_below * static_cast<double>(n_below) +
-                                                             p_above * static_cast<double>(n_above)));
+    return lambda *
+           (cost_.traversal + cost_.intersection * (p_below * static_cast<double>(n_below) +
+                                                    p_above * static_cast<double>(n_above)));
   }
 
  private:
@@ -72,9 +73,9 @@ struct SplitCandidate {
 };
 
 struct GoldenSearchOptions {
-  int samples = 8;                  // coarse uniform samples that bracket the minimum (no start given)
-  double tolerance = 2e-3;          // final bracket width, relative to the searched interval
-  int max_iterations = 40;          // Brent iterations at most
+  int samples = 8;          // coarse uniform samples that bracket the minimum (no start given)
+  double tolerance = 2e-3;  // final bracket width, relative to the searched interval
+  int max_iterations = 40;  // Brent iterations at most
   std::size_t exhaustive_events = 128;  // axes with at most this many events are swept fully
 };
 
@@ -103,8 +104,8 @@ GoldenSearchResult golden_search_axis(const AxisEvents& events, const Aabb& cell
                                       std::optional<float> start = std::nullopt,
                                       const GoldenSearchOptions& options = {});
 
-// Reference: the cost at every distinct event position in [lo, hi] inside the cell, the
-// exact minimum (ties: lowest position). Used for tiny axes and by the tests.
+// The exact minimum: one sweep costing every distinct event position in [lo, hi] inside the
+// cell (ties: lowest position). Used for axes with few events, small nodes and the tests.
 GoldenSearchResult exhaustive_search_axis(const AxisEvents& events, const Aabb& cell, int axis,
                                           const KdSplitCost& cost, float lo, float hi);
 

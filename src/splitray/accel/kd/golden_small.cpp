@@ -9,7 +9,8 @@
 
 namespace splitray {
 
-BinnedSplit find_small_split(std::span<const PrimRef> prims, const Aabb& cell, const KdSplitCost& cost) {
+BinnedSplit find_small_split(std::span<const PrimRef> prims, const Aabb& cell,
+                             const KdSplitCost& cost) {
   const std::size_t n = prims.size();
   constexpr std::size_t kStack = 64;
   std::array<float, 3 * kStack> stack_lists;
@@ -39,7 +40,8 @@ BinnedSplit find_small_split(std::span<const PrimRef> prims, const Aabb& cell, c
     std::sort(ends, ends + n_spans);
     std::sort(planes, planes + n_planes);
     const AxisEvents events{{starts, n_spans}, {ends, n_spans}, {planes, n_planes}};
-    const GoldenSearchResult r = exhaustive_search_axis(events, cell, a, cost, cell.lo[a], cell.hi[a]);
+    const GoldenSearchResult r =
+        exhaustive_search_axis(events, cell, a, cost, cell.lo[a], cell.hi[a]);
     best.evals += r.evals;
     if (r.best.valid() && r.best.cost < best.cost) {
       best.cost = r.best.cost;
@@ -53,8 +55,9 @@ BinnedSplit find_small_split(std::span<const PrimRef> prims, const Aabb& cell, c
   return best;
 }
 
-std::unique_ptr<KdBuildNode> build_small_subtree(const SmallSubtree& build, std::span<const PrimRef> prims,
-                                                 const Aabb& cell, int depth, BumpArena& arena,
+std::unique_ptr<KdBuildNode> build_small_subtree(const SmallSubtree& build,
+                                                 std::span<const PrimRef> prims, const Aabb& cell,
+                                                 int depth, BumpArena& arena,
                                                  std::uint64_t& evals) {
   auto node = std::make_unique<KdBuildNode>();
   const std::size_t n = prims.size();
@@ -72,7 +75,8 @@ std::unique_ptr<KdBuildNode> build_small_subtree(const SmallSubtree& build, std:
   const std::span<PrimRef> below(arena.allocate<PrimRef>(split.n_below), split.n_below);
   const std::span<PrimRef> above(arena.allocate<PrimRef>(split.n_above), split.n_above);
   Aabb below_content, above_content;
-  partition_binned(prims, build.triangles, cell, split, below, above, below_content, above_content, false);
+  partition_binned(prims, build.triangles, cell, split, below, above, below_content, above_content,
+                   false);
   Aabb below_cell = cell, above_cell = cell;
   below_cell.hi[split.axis] = split.position;
   above_cell.lo[split.axis] = split.position;

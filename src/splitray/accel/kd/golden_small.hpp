@@ -23,12 +23,13 @@ struct SmallSubtree {
 
 // Builds the subtree of `prims` (bounds clipped to `cell`) at `depth` by the shared rules;
 // adds its cost evaluations to `evals`.
-std::unique_ptr<KdBuildNode> build_small_subtree(const SmallSubtree& build, std::span<const PrimRef> prims,
-                                                 const Aabb& cell, int depth, BumpArena& arena,
-                                                 std::uint64_t& evals);
+std::unique_ptr<KdBuildNode> build_small_subtree(const SmallSubtree& build,
+                                                 std::span<const PrimRef> prims, const Aabb& cell,
+                                                 int depth, BumpArena& arena, std::uint64_t& evals);
 
 // The exact SAH minimum over the bounds of a few primitives (ties: lower axis, position),
 // in-plane primitives on their cheaper side.
-BinnedSplit find_small_split(std::span<const PrimRef> prims, const Aabb& cell, const KdSplitCost& cost);
+BinnedSplit find_small_split(std::span<const PrimRef> prims, const Aabb& cell,
+                             const KdSplitCost& cost);
 
 }  // namespace splitray

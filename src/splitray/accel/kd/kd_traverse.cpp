@@ -3,13 +3,14 @@
 // Why it never loses the closest hit: every leaf test uses the watertight triangle test with
 // [ray.tmin, best t], so whatever a leaf reports is what brute computes for that triangle, and
 // the answer is the smallest (t, id) among the triangles tested. It is brute's answer as long
-// as no triangle that could beat it is skipped. Two things could skip one: rounding when the
-// ray is clipped against split planes (and rays in or parallel to a plane), and rounding of t
-// in the triangle test, which may place a hit slightly before the cell it lies in. So every
-// cell is widened by `delta` in space and its t-range by `delta / max|dir|` (delta = 2^-18 of
-// the scale of the scene and the ray: far above float rounding, far below any cell that
-// matters for speed), and a far cell is skipped only when its widened entry t exceeds the best
-// t (strictly: on equal t a smaller id may wait there).
+// as no triangle that could beat it is skipped. Three kinds of rounding could skip one: when
+// the ray is clipped against split planes (and rays in or parallel to a plane), when the
+// builder clipped a triangle to a cell (perfect splits may miss a cell the triangle reaches
+// by an ulp), and in the triangle test's t, which may place a hit slightly before the cell it
+// lies in. So every cell is widened by `delta` in space and its t-range by `delta / max|dir|`
+// (delta = 2^-18 of the scale of the scene and the ray: far above float rounding, far below
+// any cell that matters for speed), and a far cell is skipped only when its widened entry t
+// exceeds the best t (strictly: on equal t a smaller id may wait there).
 #include <cmath>
 #include <limits>
 
@@ -54,8 +55,8 @@ bool KdAccel::traverse(const Ray& ray, Hit& hit) const {
   // the widening below covers the difference.
   const float tiny = std::max(max_dir * 0x1p-40f, std::numeric_limits<float>::min());
   const Aabb& box = tree_.bounds;
-  const Vec3 far_corner = max(abs(ray.org - box.lo), abs(ray.org - box.hi));
-  const float delta = 0x1p-18f * (length(far_corner) + coord_scale_);
+  const Vec3 far_corner = max(abs(ray.org - box.lo), abs(ray.org - box.hi));  // L1 norm >= distance
+  const float delta = 0x1p-18f * (far_corner.x + far_corner.y + far_corner.z + coord_scale_);
   const float pad_t = delta / max_dir;
   float inv[3], pad[3], org[3];
   float t0 = ray.tmin, t1 = ray.tmax;
@@ -82,7 +83,7 @@ bool KdAccel::traverse(const Ray& ray, Hit& hit) const {
   for (;;) {
     const KdNode node = nodes[index];
     if (!node.is_leaf()) {
-      __builtin_prefetch(nodes + node.above());
+      __builtin_prefetch(nodes + node.above());  // in case the ray goes there next
       const int a = node.axis();
       const float t_split = (node.split - org[a]) * inv[a];
       const float hi = t_split + pad[a], lo = t_split - pad[a];

@@ -1,7 +1,7 @@
 // Exact SAH kd-tree in O(N log N) (Wald & Havran 2006, "On building fast kd-trees for ray
 // tracing, and on doing that in O(N log N)"): the start/end/planar events of every triangle
 // are sorted once per axis; each node sweeps its sorted events to find the cheapest plane,
-// classifies its triangles left/right/both and splits the event lists in linear time.
+// classifies its triangles below/above/both and splits the event lists in linear time.
 // Triangles that straddle the plane are clipped to each child cell (perfect splits) and only
 // their new events are sorted and merged in. Subtrees build as TBB tasks; every decision
 // depends on the data only, so the tree is the same for any thread count.
@@ -22,8 +22,8 @@ namespace splitray {
 
 namespace {
 
-// Event types in the sweep order at one position: triangles ending there leave the right side
-// before the plane is evaluated, triangles starting there join the left side after it.
+// Event types in the sweep order at one position: triangles ending there leave the above side
+// before the plane is evaluated, triangles starting there join the below side after it.
 enum : std::uint32_t { kEnd = 0, kPlanar = 1, kStart = 2 };
 constexpr std::uint32_t kIndexBits = 30;
 constexpr std::uint32_t kIndexMask = (1u << kIndexBits) - 1;
@@ -40,15 +40,22 @@ struct Event {
   }
 };
 
-using Events = std::array<std::vector<Event>, 3>;
+using AxisEvents = std::array<std::vector<Event>, 3>;
 
+// One node's work: its cell, its triangles and their events, the three axes' sorted lists
+// one after another in one array (fewer allocations per node).
 struct Node {
   Aabb box;
   std::vector<std::uint32_t> tris;  // triangle ids; events refer to positions in this list
-  Events events;                    // per axis, sorted
+  std::vector<Event> events;
+  std::array<std::size_t, 4> axis_begin{};  // events of axis a: [axis_begin[a], axis_begin[a+1])
+
+  std::span<const Event> axis(int a) const {
+    return {events.data() + axis_begin[a], events.data() + axis_begin[a + 1]};
+  }
 };
 
-void add_events(const Aabb& b, std::uint32_t index, Events& out) {
+void add_events(const Aabb& b, std::uint32_t index, AxisEvents& out) {
   for (int axis = 0; axis < 3; ++axis) {
     if (b.lo[axis] == b.hi[axis]) {
       out[axis].push_back({b.lo[axis], (kPlanar << kIndexBits) | index});
@@ -104,7 +111,8 @@ class SahBuilder {
   std::uint64_t cost_evals() const { return cost_evals_.load(); }
 
  private:
-  static constexpr std::size_t kParallelPrims = 2048;  // smaller subtrees build in their task
+  static constexpr std::size_t kParallelPrims = 2048;        // smaller subtrees: one task
+  static constexpr std::size_t kParallelSweepPrims = 32768;  // sweep the three axes at once
 
   static std::unique_ptr<KdBuildNode> make_leaf(Node& node) {
     auto leaf = std::make_unique<KdBuildNode>();
@@ -113,48 +121,60 @@ class SahBuilder {
     return leaf;
   }
 
-  // The sweep: for every distinct event position, the counts below/in/above the plane are
-  // known from the events before it; planar triangles are tried on both sides.
   Split find_split(const Node& node) {
-    const std::size_t n = node.tris.size();
-    Split best;
-    std::uint64_t evals = 0;
-    for (int axis = 0; axis < 3; ++axis) {
-      const std::vector<Event>& events = node.events[axis];
-      const KdSplitCost::Axis cost(sah_, node.box, axis);
-      const float lo = node.box.lo[axis], hi = node.box.hi[axis];
-      const Event* e = events.data();
-      const Event* const end = e + events.size();
-      std::size_t n_below = 0, n_above = n;
-      while (e != end) {
-        const float pos = e->pos;
-        std::size_t ends = 0, planars = 0, starts = 0;
-        for (; e != end && e->pos == pos && e->type() == kEnd; ++e) ++ends;
-        for (; e != end && e->pos == pos && e->type() == kPlanar; ++e) ++planars;
-        for (; e != end && e->pos == pos && e->type() == kStart; ++e) ++starts;
-        n_above -= planars + ends;
-        if (pos > lo && pos < hi) {  // a plane on the cell's boundary cuts off nothing
-          const double cost_below = cost(pos, n_below + planars, n_above);
-          ++evals;
-          if (cost_below < best.cost) best = {cost_below, axis, pos, true};
-          if (planars > 0) {
-            const double cost_above = cost(pos, n_below, n_above + planars);
-            ++evals;
-            if (cost_above < best.cost) best = {cost_above, axis, pos, false};
-          }
-        }
-        n_below += starts + planars;
-      }
+    std::array<Split, 3> best;
+    std::array<std::uint64_t, 3> evals{};
+    const auto sweep = [&](int axis) { best[axis] = sweep_axis(node, axis, evals[axis]); };
+    if (node.tris.size() >= kParallelSweepPrims) {
+      tbb::parallel_invoke([&] { sweep(0); }, [&] { sweep(1); }, [&] { sweep(2); });
+    } else {
+      for (int axis = 0; axis < 3; ++axis) sweep(axis);
     }
-    cost_evals_.fetch_add(evals, std::memory_order_relaxed);
+    cost_evals_.fetch_add(evals[0] + evals[1] + evals[2], std::memory_order_relaxed);
+    // The first minimum in the order axis, position, side, whatever ran where.
+    Split result = best[0];
+    for (int axis = 1; axis < 3; ++axis)
+      if (best[axis].cost < result.cost) result = best[axis];
+    return result;
+  }
+
+  // The sweep over one axis: for every distinct event position, the counts below/in/above the
+  // plane are known from the events before it; planar triangles are tried on both sides.
+  Split sweep_axis(const Node& node, int axis, std::uint64_t& evals) const {
+    const KdSplitCost::Axis cost(sah_, node.box, axis);
+    const float lo = node.box.lo[axis], hi = node.box.hi[axis];
+    const std::span<const Event> events = node.axis(axis);
+    const Event* e = events.data();
+    const Event* const end = e + events.size();
+    std::size_t n_below = 0, n_above = node.tris.size();
+    Split best;
+    while (e != end) {
+      const float pos = e->pos;
+      std::size_t ends = 0, planars = 0, starts = 0;
+      for (; e != end && e->pos == pos && e->type() == kEnd; ++e) ++ends;
+      for (; e != end && e->pos == pos && e->type() == kPlanar; ++e) ++planars;
+      for (; e != end && e->pos == pos && e->type() == kStart; ++e) ++starts;
+      n_above -= planars + ends;
+      if (pos > lo && pos < hi) {  // a plane on the cell's boundary cuts off nothing
+        const double cost_below = cost(pos, n_below + planars, n_above);
+        ++evals;
+        if (cost_below < best.cost) best = {cost_below, axis, pos, true};
+        if (planars > 0) {
+          const double cost_above = cost(pos, n_below, n_above + planars);
+          ++evals;
+          if (cost_above < best.cost) best = {cost_above, axis, pos, false};
+        }
+      }
+      n_below += starts + planars;
+    }
     return best;
   }
 
-  // Per-thread buffers of partition(), which never yields to another task while using them.
+  // Per-thread buffers of partition(), which never waits for other tasks while using them.
   struct Scratch {
     std::vector<std::uint8_t> side;
     std::vector<std::uint32_t> below_index, above_index, straddling;
-    Events fresh_below, fresh_above;
+    AxisEvents fresh_below, fresh_above;
   };
 
   void partition(const Node& node, const Split& split, Node& below, Node& above) const {
@@ -162,7 +182,7 @@ class SahBuilder {
     const std::size_t n = node.tris.size();
     std::vector<std::uint8_t>& side = scratch.side;
     side.assign(n, kBoth);
-    for (const Event& e : node.events[split.axis]) {
+    for (const Event& e : node.axis(split.axis)) {
       const std::uint32_t type = e.type();
       if (type == kEnd && e.pos <= split.pos) {
         side[e.tri()] = kBelow;
@@ -185,40 +205,20 @@ class SahBuilder {
     below_index.resize(n);
     above_index.resize(n);
     straddling.clear();
-    below.tris.reserve(n);
-    above.tris.reserve(n);
+    std::size_t n_below = 0, n_above = 0;
     for (std::size_t i = 0; i < n; ++i) {
-      if (side[i] != kAbove) {
-        below_index[i] = static_cast<std::uint32_t>(below.tris.size());
-        below.tris.push_back(node.tris[i]);
-      }
-      if (side[i] != kBelow) {
-        above_index[i] = static_cast<std::uint32_t>(above.tris.size());
-        above.tris.push_back(node.tris[i]);
-      }
+      if (side[i] != kAbove) below_index[i] = static_cast<std::uint32_t>(n_below++);
+      if (side[i] != kBelow) above_index[i] = static_cast<std::uint32_t>(n_above++);
       if (side[i] == kBoth) straddling.push_back(static_cast<std::uint32_t>(i));
     }
-
-    // Events of one-sided triangles stay valid and sorted: filter them in linear time. A child
-    // never has more events on an axis than its parent (clipping only shrinks a triangle's
-    // extent), so the children's arrays are sized once and the new events merged in place.
-    for (int axis = 0; axis < 3; ++axis) {
-      const std::vector<Event>& events = node.events[axis];
-      below.events[axis].resize(events.size());
-      above.events[axis].resize(events.size());
-      Event* out_below = below.events[axis].data();
-      Event* out_above = above.events[axis].data();
-      for (const Event& e : events) {
-        const std::uint32_t i = e.tri(), type = e.type() << kIndexBits;
-        if (side[i] == kBelow) *out_below++ = {e.pos, type | below_index[i]};
-        else if (side[i] == kAbove) *out_above++ = {e.pos, type | above_index[i]};
-      }
-      below.events[axis].resize(static_cast<std::size_t>(out_below - below.events[axis].data()));
-      above.events[axis].resize(static_cast<std::size_t>(out_above - above.events[axis].data()));
+    below.tris.resize(n_below);
+    above.tris.resize(n_above);
+    for (std::size_t i = 0; i < n; ++i) {
+      if (side[i] != kAbove) below.tris[below_index[i]] = node.tris[i];
+      if (side[i] != kBelow) above.tris[above_index[i]] = node.tris[i];
     }
-    if (straddling.empty()) return;
 
-    // Straddling triangles get new events from their part in each child, sorted and merged.
+    // Straddling triangles get new events from their part in each child, sorted per axis.
     for (int axis = 0; axis < 3; ++axis) {
       scratch.fresh_below[axis].clear();
       scratch.fresh_above[axis].clear();
@@ -228,23 +228,39 @@ class SahBuilder {
       add_events(clip_triangle_bounds(tri, below.box), below_index[i], scratch.fresh_below);
       add_events(clip_triangle_bounds(tri, above.box), above_index[i], scratch.fresh_above);
     }
-    merge_events(scratch.fresh_below, below.events);
-    merge_events(scratch.fresh_above, above.events);
+    for (int axis = 0; axis < 3; ++axis) {
+      std::sort(scratch.fresh_below[axis].begin(), scratch.fresh_below[axis].end());
+      std::sort(scratch.fresh_above[axis].begin(), scratch.fresh_above[axis].end());
+    }
+    // Events of one-sided triangles stay valid and sorted: filter them and merge the new ones
+    // in, in one linear pass per child and axis.
+    fill_child(node, side, kBelow, below_index, scratch.fresh_below, below);
+    fill_child(node, side, kAbove, above_index, scratch.fresh_above, above);
   }
 
-  // Merges sorted `fresh` into sorted `events`, from the back, in place.
-  static void merge_events(Events& fresh, Events& events) {
+  static void fill_child(const Node& node, const std::vector<std::uint8_t>& side, Side keep,
+                         const std::vector<std::uint32_t>& new_index, const AxisEvents& fresh, Node& child) {
+    std::array<std::size_t, 3> count{};
     for (int axis = 0; axis < 3; ++axis) {
-      std::vector<Event>& add = fresh[axis];
-      std::vector<Event>& into = events[axis];
-      std::sort(add.begin(), add.end());
-      std::size_t i = into.size(), j = add.size(), w = i + j;
-      into.resize(w);
-      while (j > 0) {
-        if (i > 0 && add[j - 1] < into[i - 1]) into[--w] = into[--i];
-        else into[--w] = add[--j];
-      }
+      std::size_t kept = 0;
+      for (const Event& e : node.axis(axis)) kept += side[e.tri()] == keep ? 1 : 0;
+      count[axis] = kept + fresh[axis].size();
     }
+    child.events.resize(count[0] + count[1] + count[2]);
+    Event* out = child.events.data();
+    for (int axis = 0; axis < 3; ++axis) {
+      child.axis_begin[axis] = static_cast<std::size_t>(out - child.events.data());
+      const Event* add = fresh[axis].data();
+      const Event* const add_end = add + fresh[axis].size();
+      for (const Event& e : node.axis(axis)) {
+        if (side[e.tri()] != keep) continue;
+        const Event moved{e.pos, (e.key & ~kIndexMask) | new_index[e.tri()]};
+        while (add != add_end && *add < moved) *out++ = *add++;
+        *out++ = moved;
+      }
+      while (add != add_end) *out++ = *add++;
+    }
+    child.axis_begin[3] = child.events.size();
   }
 
   std::span<const Triangle> triangles_;
@@ -263,17 +279,24 @@ KdBuildResult build_kd_sah(std::span<const Triangle> triangles, const Aabb& boun
   Node root;
   root.box = bounds;
   root.tris.reserve(triangles.size());
+  AxisEvents events;
   for (std::size_t i = 0; i < triangles.size(); ++i) {
     Aabb b = triangles[i].bounds();
     if (!(bounds.contains(b.lo) && bounds.contains(b.hi))) b = clip_triangle_bounds(triangles[i], bounds);
     if (b.empty()) continue;  // outside the root cell
     const auto index = static_cast<std::uint32_t>(root.tris.size());
     root.tris.push_back(static_cast<std::uint32_t>(i));
-    add_events(b, index, root.events);
+    add_events(b, index, events);
   }
-  tbb::parallel_invoke([&] { std::sort(root.events[0].begin(), root.events[0].end()); },
-                       [&] { std::sort(root.events[1].begin(), root.events[1].end()); },
-                       [&] { std::sort(root.events[2].begin(), root.events[2].end()); });
+  tbb::parallel_invoke([&] { std::sort(events[0].begin(), events[0].end()); },
+                       [&] { std::sort(events[1].begin(), events[1].end()); },
+                       [&] { std::sort(events[2].begin(), events[2].end()); });
+  for (int axis = 0; axis < 3; ++axis) {
+    root.axis_begin[axis] = root.events.size();
+    root.events.insert(root.events.end(), events[axis].begin(), events[axis].end());
+    events[axis] = {};
+  }
+  root.axis_begin[3] = root.events.size();
 
   SahBuilder builder(triangles, config);
   KdBuildResult result;

@@ -1,0 +1,348 @@
+// splitray animate FRAMES... : kd-tree rebuilds of an animation, every frame from scratch
+// (the baseline, `golden` by default, and the exact `sah` for reference) and predicted from
+// the previous frames' splits by Kalman or Wiener filters (paper 000), in one process on the
+// same frames. Prints per-frame rows and a summary (paper 000 Table 1); --plot draws paper
+// Fig. 7 through scripts/plot_animate.py.
+#include <fmt/core.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <sstream>
+
+#include "commands.hpp"
+#include "options.hpp"
+#include "progress.hpp"
+#include "splitray/accel/kd/kd_accel.hpp"
+#include "splitray/accel/kd/predicted_builder.hpp"
+#include "splitray/core/errors.hpp"
+#include "splitray/core/image.hpp"
+#include "splitray/core/parallel.hpp"
+#include "splitray/core/scene.hpp"
+#include "splitray/core/timer.hpp"
+#include "splitray/io/frames.hpp"
+#include "splitray/render/ray_sets.hpp"
+#include "splitray/render/whitted.hpp"
+
+namespace splitray::app {
+
+namespace {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::ordered_json;
+
+struct AnimateCommand {
+  std::vector<std::string> frames;
+  AccelOptions accel;
+  std::string predictor = "kalman";
+  PredictorConfig config;
+  std::size_t max_frames = 0;
+  std::size_t rays = 16384;
+  std::uint64_t seed = 1;
+  bool json = false;
+  std::string csv, plot, render_dir;
+};
+
+struct FrameRow {
+  double build_ms_full = 0, build_ms_predicted = 0, build_ms_sah = 0;
+  double sah_full = 0, sah_predicted = 0;
+  std::size_t nodes_full = 0, nodes_predicted = 0;
+  std::uint64_t evals_full = 0, evals_predicted = 0;
+  double trace_ms_full = 0, trace_ms_predicted = 0;
+  std::size_t hit_mismatches = 0;
+  PredictedBuildStats predicted;
+};
+
+double mean_from(const std::vector<FrameRow>& rows, std::size_t first, double FrameRow::*field) {
+  if (rows.size() <= first) first = 0;
+  double sum = 0;
+  for (std::size_t i = first; i < rows.size(); ++i) sum += rows[i].*field;
+  return sum / static_cast<double>(rows.size() - first);
+}
+
+std::string optional_number(const std::optional<double>& v) { return v ? fmt::format("{:.9g}", *v) : ""; }
+
+std::string csv_text(const std::vector<FrameRow>& rows, const FrameSequence& frames,
+                     const std::string& predictor) {
+  std::ostringstream out;
+  out << "frame,predictor,build_ms_full,build_ms_predicted,build_ms_sah,sah_cost_full,"
+         "sah_cost_predicted,nodes_full,nodes_predicted,cost_evals_full,cost_evals_predicted,"
+         "searched_nodes,predicted_nodes,fallbacks,mean_error,max_error,root_axis,root_actual,"
+         "root_predicted,trace_ms_full,trace_ms_predicted,hit_mismatches,label\n";
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const FrameRow& r = rows[i];
+    out << fmt::format("{},{},{:.4f},{:.4f},{:.4f},{:.6f},{:.6f},{},{},{},{},{},{},{},{:.6g},{:.6g},{},{},{},{:.4f},{:.4f},{},\"{}\"\n",
+                       i, predictor, r.build_ms_full, r.build_ms_predicted, r.build_ms_sah,
+                       r.sah_full, r.sah_predicted, r.nodes_full, r.nodes_predicted, r.evals_full,
+                       r.evals_predicted, r.predicted.searched_nodes, r.predicted.predicted_nodes,
+                       r.predicted.fallbacks, r.predicted.mean_error, r.predicted.max_error,
+                       r.predicted.root_axis, optional_number(r.predicted.root_actual),
+                       optional_number(r.predicted.root_predicted), r.trace_ms_full,
+                       r.trace_ms_predicted, r.hit_mismatches, frames.label(i));
+  }
+  return out.str();
+}
+
+// scripts/plot_animate.py beside the source tree: $SPLITRAY_SOURCE_DIR, the folders above the
+// executable, or the working folder.
+std::string find_plot_script() {
+  std::vector<fs::path> roots;
+  if (const char* env = std::getenv("SPLITRAY_SOURCE_DIR")) roots.emplace_back(env);
+  std::error_code ec;
+  fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  for (int up = 0; !ec && up < 4 && exe.has_parent_path(); ++up) {
+    exe = exe.parent_path();
+    roots.push_back(exe);
+  }
+  roots.push_back(fs::current_path());
+  for (const fs::path& root : roots)
+    if (fs::exists(root / "scripts" / "plot_animate.py")) return (root / "scripts" / "plot_animate.py").string();
+  throw Error("--plot", "scripts/plot_animate.py not found (set SPLITRAY_SOURCE_DIR to the source tree)");
+}
+
+void plot(const std::string& csv_path, const std::string& png) {
+  const std::string command =
+      fmt::format("/usr/bin/python3 '{}' --out '{}' '{}'", find_plot_script(), png, csv_path);
+  if (std::system(command.c_str()) != 0) throw Error("--plot " + png, "the plotting script failed");
+}
+
+double trace_ms(const Accel& accel, std::span<const Ray> rays, std::vector<Hit>& hits) {
+  hits.assign(rays.size(), Hit{});
+  const Timer timer;
+  accel.intersect(rays, hits);
+  return timer.ms();
+}
+
+Mesh mesh_of(const std::vector<Triangle>& triangles) {
+  Mesh mesh;
+  mesh.name = "frame";
+  for (const Triangle& t : triangles) {
+    const auto base = static_cast<std::uint32_t>(mesh.positions.size());
+    mesh.positions.push_back(t.v0);
+    mesh.positions.push_back(t.v1);
+    mesh.positions.push_back(t.v2);
+    mesh.faces.push_back({base, base + 1, base + 2});
+  }
+  return mesh;
+}
+
+void render_frame(const std::vector<Triangle>& triangles, const Camera& camera, const BuildConfig& build,
+                  const std::string& dir, std::size_t index) {
+  RenderOptions options;
+  options.width = 640;
+  options.height = 480;
+  options.build = build;
+  const RenderResult result = render_whitted(scene_from_mesh(mesh_of(triangles)), camera, options);
+  fs::create_directories(dir);
+  write_png((fs::path(dir) / fmt::format("frame-{:04d}.png", index)).string(), result.image);
+}
+
+void run_embree(const AnimateCommand& command, const std::vector<std::vector<Triangle>>& frames) {
+  if (command.accel.build.builder == "refit")
+    throw Error("--accel embree --builder refit", "Embree refitting is not implemented yet; use low|medium|high");
+  std::vector<double> ms;
+  ProgressBar bar("animate");
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    const Timer timer;
+    const auto accel = make_accel("embree", frames[i], command.accel.build);
+    ms.push_back(timer.ms());
+    bar.update(static_cast<double>(i + 1) / frames.size());
+  }
+  bar.finish();
+  double sum = 0;
+  for (std::size_t i = ms.size() > 1 ? 1 : 0; i < ms.size(); ++i) sum += ms[i];
+  const double mean = sum / static_cast<double>(ms.size() > 1 ? ms.size() - 1 : 1);
+  if (command.json) {
+    print_json({{"frames", frames.size()}, {"triangles", frames[0].size()}, {"accel", "embree"},
+                {"builder", command.accel.build.builder.empty() ? "default" : command.accel.build.builder},
+                {"mean_build_ms", mean}, {"build_ms", ms}});
+  } else {
+    for (std::size_t i = 0; i < ms.size(); ++i) fmt::print("frame {:4d}  build_ms {:9.3f}\n", i, ms[i]);
+    print_table({{"frames", std::to_string(frames.size())},
+                 {"triangles", std::to_string(frames[0].size())},
+                 {"mean_build_ms (embree, frames 1..)", fmt::format("{:.3f}", mean)}});
+  }
+}
+
+void run(AnimateCommand command) {
+  const FrameSequence sequence(command.frames);
+  command.config.kind = parse_predictor_kind(command.predictor);
+  std::vector<std::vector<Triangle>> frames;
+  {
+    ProgressBar bar("loading");
+    bar.status("loading " + std::to_string(sequence.size()) + " frames");
+    frames = load_frames(sequence, command.max_frames);
+  }
+  const ThreadLimit limit(command.accel.build.threads);
+  if (command.accel.accel == "embree") return run_embree(command, frames);
+  if (command.accel.accel != "kd")
+    throw Error("--accel " + command.accel.accel, "animate rebuilds kd-trees (--accel kd) or Embree (--accel embree)");
+
+  BuildConfig base = command.accel.build;
+  if (base.builder.empty()) base.builder = "golden";
+  kd_builder(base.builder);  // an unknown name fails here
+  BuildConfig sah = base;
+  sah.builder = "sah";
+  SplitPredictor predictor(command.config);
+  std::vector<FrameRow> rows(frames.size());
+  std::optional<Camera> camera;
+  ProgressBar bar("animate");
+  std::vector<Hit> hits_full, hits_predicted;
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    const std::vector<Triangle>& tris = frames[i];
+    FrameRow& row = rows[i];
+    Timer timer;
+    const auto full = make_kd(tris, base);
+    row.build_ms_full = timer.ms();
+    timer.reset();
+    const auto predicted = make_kd_predicted(tris, base, predictor, row.predicted);
+    row.build_ms_predicted = timer.ms();
+    if (base.builder == "sah") {
+      row.build_ms_sah = row.build_ms_full;
+    } else {
+      timer.reset();
+      const auto exact = make_kd(tris, sah);
+      row.build_ms_sah = timer.ms();
+    }
+    row.sah_full = full->stats().sah_cost.value_or(0);
+    row.sah_predicted = predicted->stats().sah_cost.value_or(0);
+    row.nodes_full = full->stats().nodes;
+    row.nodes_predicted = predicted->stats().nodes;
+    row.evals_full = full->stats().cost_evals;
+    row.evals_predicted = predicted->stats().cost_evals;
+    if (command.rays > 0) {
+      const std::vector<Ray> rays = make_rays(tris, RayKind::primary, command.seed + i, command.rays);
+      // Alternate the order so that neither tree always runs on warm caches.
+      if (i % 2 == 0) {
+        row.trace_ms_full = trace_ms(*full, rays, hits_full);
+        row.trace_ms_predicted = trace_ms(*predicted, rays, hits_predicted);
+      } else {
+        row.trace_ms_predicted = trace_ms(*predicted, rays, hits_predicted);
+        row.trace_ms_full = trace_ms(*full, rays, hits_full);
+      }
+      for (std::size_t r = 0; r < rays.size(); ++r)
+        row.hit_mismatches += hits_full[r].prim != hits_predicted[r].prim || hits_full[r].t != hits_predicted[r].t;
+    }
+    if (!command.render_dir.empty()) {
+      if (!camera) {
+        Aabb box;
+        for (const Triangle& t : tris) box.extend(t.bounds());
+        camera = Camera::frame(box);
+      }
+      render_frame(tris, *camera, base, command.render_dir, i);
+    }
+    bar.update(static_cast<double>(i + 1) / frames.size());
+  }
+  bar.finish();
+
+  // Means over frames 1.. (frame 0 has nothing to predict from), as in paper 000 Table 1.
+  const double full_ms = mean_from(rows, 1, &FrameRow::build_ms_full);
+  const double predicted_ms = mean_from(rows, 1, &FrameRow::build_ms_predicted);
+  const double sah_ms = mean_from(rows, 1, &FrameRow::build_ms_sah);
+  const double sah_ratio = mean_from(rows, 0, &FrameRow::sah_predicted) / mean_from(rows, 0, &FrameRow::sah_full);
+  const double trace_full = mean_from(rows, 0, &FrameRow::trace_ms_full);
+  const double trace_predicted = mean_from(rows, 0, &FrameRow::trace_ms_predicted);
+  const double trace_ratio = trace_predicted > 0 ? trace_full / trace_predicted : 0;
+  std::size_t mismatches = 0, errors = 0;
+  double error_sum = 0, error_max = 0, evals_full = 0, evals_predicted = 0, predicted_nodes = 0,
+         searched = 0;
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const FrameRow& r = rows[i];
+    mismatches += r.hit_mismatches;
+    error_sum += r.predicted.mean_error * static_cast<double>(r.predicted.errors);
+    errors += r.predicted.errors;
+    error_max = std::max(error_max, r.predicted.max_error);
+    if (i > 0 || rows.size() == 1) {
+      evals_full += static_cast<double>(r.evals_full);
+      evals_predicted += static_cast<double>(r.evals_predicted);
+      predicted_nodes += static_cast<double>(r.predicted.predicted_nodes);
+      searched += static_cast<double>(r.predicted.searched_nodes);
+    }
+  }
+  const double counted = static_cast<double>(rows.size() > 1 ? rows.size() - 1 : 1);
+
+  const std::string csv = csv_text(rows, sequence, command.predictor);
+  if (!command.csv.empty()) write_file_atomically(command.csv, csv);
+  if (!command.plot.empty()) {
+    const fs::path tmp = fs::temp_directory_path() / fmt::format("splitray-animate-{}.csv", ::getpid());
+    write_file_atomically(tmp.string(), csv);
+    plot(tmp.string(), command.plot);
+    fs::remove(tmp);
+  }
+
+  Json summary = {
+      {"frames", rows.size()},
+      {"triangles", frames[0].size()},
+      {"mean_build_ms_full", full_ms},
+      {"mean_build_ms_predicted", predicted_ms},
+      {"mean_build_ms_sah", sah_ms},
+      {"reduction", full_ms > 0 ? 1 - predicted_ms / full_ms : 0},
+      {"sah_cost_ratio", sah_ratio},
+      {"trace_ratio", trace_ratio},
+      {"predictor", command.predictor},
+      {"builder", base.builder},
+      {"mean_prediction_error", errors ? error_sum / static_cast<double>(errors) : 0},
+      {"max_prediction_error", error_max},
+      {"predicted_node_share", searched > 0 ? predicted_nodes / searched : 0},
+      {"mean_cost_evals_full", evals_full / counted},
+      {"mean_cost_evals_predicted", evals_predicted / counted},
+      {"rays_per_frame", command.rays},
+      {"hit_mismatches", mismatches},
+      {"threads", effective_threads(command.accel.build.threads)},
+      {"first_frame", sequence.label(0)},
+  };
+  if (command.json) {
+    print_json(summary);
+    return;
+  }
+  fmt::print("{:>5} {:>10} {:>10} {:>10} {:>9} {:>9} {:>8} {:>9} {:>9} {:>8} {:>8}\n", "frame",
+             "full_ms", "pred_ms", "sah_ms", "sah_full", "sah_pred", "nodes", "evals_f",
+             "evals_p", "err_mean", "err_max");
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const FrameRow& r = rows[i];
+    fmt::print("{:5d} {:10.3f} {:10.3f} {:10.3f} {:9.3f} {:9.3f} {:8d} {:9d} {:9d} {:8.4f} {:8.4f}\n", i,
+               r.build_ms_full, r.build_ms_predicted, r.build_ms_sah, r.sah_full, r.sah_predicted,
+               r.nodes_predicted, r.evals_full, r.evals_predicted, r.predicted.mean_error,
+               r.predicted.max_error);
+  }
+  std::vector<std::pair<std::string, std::string>> table;
+  for (const auto& [key, value] : summary.items())
+    table.emplace_back(key, value.is_number_float() ? fmt::format("{:.4f}", value.get<double>()) : value.dump());
+  print_table(table);
+}
+
+}  // namespace
+
+void add_animate_command(CLI::App& app) {
+  auto command = std::make_shared<AnimateCommand>();
+  CLI::App* sub = app.add_subcommand(
+      "animate",
+      "Rebuild kd-trees over the frames of an animation, from scratch and predicted from the "
+      "previous frames' splits (Kalman / Wiener filters, paper 000)");
+  sub->add_option("frames", command->frames,
+                  "Frames: mesh files, a glob, a printf pattern (horse-%02d.obj.gz), a folder, "
+                  "one MD2 file or one BART .aff scene")
+      ->required();
+  add_accel_options(*sub, command->accel);
+  sub->add_option("-p,--predictor", command->predictor, "none, kalman or wiener")
+      ->check(CLI::IsMember({"none", "kalman", "wiener"}));
+  sub->add_option("--frames", command->max_frames, "Use only the first N frames (0 = all)");
+  sub->add_option("--rays", command->rays, "Primary rays per frame for trace_ratio (0 = none)");
+  sub->add_option("--seed", command->seed, "Seed of the ray sets");
+  sub->add_option("--sigmas", command->config.sigmas, "Bracket half width in predicted standard deviations");
+  sub->add_option("--min-bracket", command->config.min_half_width, "Smallest bracket half width (fraction of the cell)");
+  sub->add_option("--kalman-q", command->config.kalman.process_noise, "Kalman process noise (cell fractions^2)");
+  sub->add_option("--kalman-r", command->config.kalman.measurement_noise, "Kalman measurement noise (cell fractions^2)");
+  sub->add_option("--wiener-order", command->config.wiener.order, "Wiener filter taps")->check(CLI::Range(1, kWienerMaxOrder));
+  sub->add_option("--wiener-step", command->config.wiener.step, "NLMS step size mu");
+  sub->add_option("--refresh", command->config.refresh_frames, "Re-check a node's other axes at least every N frames");
+  sub->add_flag("--json", command->json, "Print the summary as one JSON object");
+  sub->add_option("--csv", command->csv, "Write per-frame rows to this CSV file");
+  sub->add_option("--plot", command->plot, "Draw build times and root splits (paper Fig. 7) to this PNG");
+  sub->add_option("--render", command->render_dir, "Render every frame as a PNG into this folder");
+  sub->callback([command] { run(*command); });
+}
+
+}  // namespace splitray::app
