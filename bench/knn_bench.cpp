@@ -7,6 +7,8 @@
 #include <iostream>
 #include <map>
 
+#include <sys/resource.h>
+
 #include "bench_meshes.hpp"
 #include "machine.hpp"
 #include "splitray/core/errors.hpp"
@@ -26,6 +28,15 @@ using json = nlohmann::ordered_json;
 struct KnnMesh {
   std::string name, path;
 };
+
+// CPU time of the whole process (all threads), ms: on a busy machine wall time says more
+// about the other work than about ours, so reports carry both.
+double cpu_ms() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  const auto ms = [](const timeval& t) { return t.tv_sec * 1e3 + t.tv_usec * 1e-3; };
+  return ms(usage.ru_utime) + ms(usage.ru_stime);
+}
 
 double median(std::vector<double> values) {
   std::sort(values.begin(), values.end());
@@ -95,16 +106,20 @@ bool is_ours(const std::string& builder) {
 template <typename Run>
 json measure(int runs, std::size_t queries, const Run& run) {
   const NeighborSummary summary = run();
-  std::vector<double> ms;
+  std::vector<double> ms, cpu;
   for (int r = 0; r < runs; ++r) {
+    const double cpu_start = cpu_ms();
     const Timer timer;
     run();
     ms.push_back(timer.ms());
+    cpu.push_back(cpu_ms() - cpu_start);
   }
-  const double m = median(ms);
+  const double m = median(ms), c = median(cpu);
   return {{"ms", m},
           {"runs_ms", ms},
           {"queries_per_s", static_cast<double>(queries) / (m / 1000)},
+          {"cpu_ms", c},
+          {"queries_per_cpu_s", static_cast<double>(queries) / (c / 1000)},
           {"neighbors", summary.neighbors},
           {"neighbor_checksum", summary.checksum},
           {"dist_sum", summary.dist_sum},
@@ -131,17 +146,20 @@ json run_mesh(const KnnMesh& mesh, const KnnBenchOptions& options, std::size_t p
   for (const std::string& structure : options.structures) {
     fmt::print(stderr, "knn bench: {} {}\n", mesh.name, structure);
     const NeighborIndexConfig config = config_of(structure, options);
-    std::vector<double> build_ms;
+    std::vector<double> build_ms, build_cpu_ms;
     std::unique_ptr<NeighborIndex> index;
     for (int r = 0; r < runs; ++r) {
       index.reset();
+      const double cpu_start = cpu_ms();
       index = make_neighbor_index(points, config);
+      build_cpu_ms.push_back(cpu_ms() - cpu_start);
       build_ms.push_back(index->build_ms());
     }
     json row = {{"builder", config.builder},
                 {"query_order", is_ours(config.builder) || config.coherent_peers ? "morton" : "given"},
                 {"build_ms", median(build_ms)},
-                {"build_runs_ms", build_ms}};
+                {"build_runs_ms", build_ms},
+                {"build_cpu_ms", median(build_cpu_ms)}};
     if (const PointTree* tree = index->tree()) {
       const PointTreeStats stats = tree->stats();
       row["tree"] = {{"nodes", stats.nodes}, {"leaves", stats.leaves}, {"max_depth", stats.max_depth},
@@ -195,15 +213,25 @@ json run_mesh(const KnnMesh& mesh, const KnnBenchOptions& options, std::size_t p
     for (const std::string peer : {"nanoflann", "flann"}) {
       if (!has(peer)) continue;
       ratios["build_vs_" + peer] = row["build_ms"].get<double>() / structures[peer]["build_ms"].get<double>();
-      for (const std::string& search : searches)
+      ratios["build_cpu_vs_" + peer] =
+          row["build_cpu_ms"].get<double>() / structures[peer]["build_cpu_ms"].get<double>();
+      for (const std::string& search : searches) {
         ratios[search + "_speedup_vs_" + peer] = row[search]["queries_per_s"].get<double>() /
                                                  structures[peer][search]["queries_per_s"].get<double>();
+        ratios[search + "_cpu_speedup_vs_" + peer] =
+            row[search]["queries_per_cpu_s"].get<double>() /
+            structures[peer][search]["queries_per_cpu_s"].get<double>();
+      }
     }
     if (has("nanoflann") && has("flann"))
       for (const std::string& search : searches) {
         const double best = std::max(structures["nanoflann"][search]["queries_per_s"].get<double>(),
                                      structures["flann"][search]["queries_per_s"].get<double>());
         ratios[search + "_speedup_vs_faster_peer"] = row[search]["queries_per_s"].get<double>() / best;
+        const double best_cpu = std::max(structures["nanoflann"][search]["queries_per_cpu_s"].get<double>(),
+                                         structures["flann"][search]["queries_per_cpu_s"].get<double>());
+        ratios[search + "_cpu_speedup_vs_faster_peer"] =
+            row[search]["queries_per_cpu_s"].get<double>() / best_cpu;
       }
     row["ratios"] = ratios;
     if (is_ours(row["builder"]) && has("nanoflann") && has("flann")) {
@@ -326,6 +354,20 @@ std::string knn_markdown_report(const json& report) {
       for (const std::string& search : searches)
         md += fmt::format(" {:.2f} | {} |", row[search]["queries_per_s"].get<double>() / 1e6,
                           fmt_ratio(ratios, search + "_speedup_vs_faster_peer"));
+      md += "\n";
+    }
+    md += "\nCPU time (all threads; what the work costs when the machine is shared):\n\n"
+          "| structure | build CPU ms | × nanoflann |";
+    for (const std::string& search : searches) md += fmt::format(" {} speedup |", search);
+    md += "\n|---|---:|---:|";
+    for (std::size_t i = 0; i < searches.size(); ++i) md += "---:|";
+    md += "\n";
+    for (const auto& [name, row] : mesh["structures"].items()) {
+      const json& ratios = row["ratios"];
+      md += fmt::format("| {} | {:.1f} | {} |", name, row["build_cpu_ms"].get<double>(),
+                        fmt_ratio(ratios, "build_cpu_vs_nanoflann"));
+      for (const std::string& search : searches)
+        md += fmt::format(" {} |", fmt_ratio(ratios, search + "_cpu_speedup_vs_faster_peer"));
       md += "\n";
     }
     md += "\nspeedup = queries/s over the faster of nanoflann and FLANN (given order). ";

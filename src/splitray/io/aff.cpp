@@ -161,7 +161,7 @@ struct AffScene::Data {
 
 namespace {
 
-// Tokens of one file with line numbers; `%` starts a comment to the end of the line.
+// Tokens of one file with line numbers; `%` and `#` start a comment to the end of the line.
 class Lexer {
  public:
   Lexer(std::string path, std::string text) : path_(std::move(path)), text_(std::move(text)) {}
@@ -175,7 +175,7 @@ class Lexer {
       ++pos_;
     } else {
       while (pos_ < text_.size() && !std::isspace(static_cast<unsigned char>(text_[pos_])) &&
-             text_[pos_] != '%' && text_[pos_] != '{' && text_[pos_] != '}')
+             text_[pos_] != '%' && text_[pos_] != '#' && text_[pos_] != '{' && text_[pos_] != '}')
         ++pos_;
     }
     token.assign(text_, start, pos_ - start);
@@ -234,7 +234,7 @@ class Lexer {
         ++pos_;
       } else if (std::isspace(static_cast<unsigned char>(c))) {
         ++pos_;
-      } else if (c == '%') {
+      } else if (c == '%' || c == '#') {
         while (pos_ < text_.size() && text_[pos_] != '\n') ++pos_;
       } else {
         break;
@@ -480,7 +480,7 @@ class Parser {
     a.node = node;
     for (std::size_t i = 0; i < n; ++i) {
       const double time = lex.number("key time");
-      if (!a.keys.empty() && !(time > a.keys.back().first)) lex.fail("key times must increase");
+      if (!a.keys.empty() && !(time > a.keys.back().first)) lex.fail("animated triangle key times must increase");
       Vec3 v[3];
       for (auto& p : v) {
         p = lex.vec3("vertex");
@@ -500,11 +500,13 @@ class Parser {
     for (std::size_t i = 0; i < n; ++i) {
       typename KbSpline<D>::Key k;
       k.time = lex.number("key time");
-      if (!spline.keys.empty() && !(k.time > spline.keys.back().time)) lex.fail("key times must increase");
+      if (!spline.keys.empty() && !(k.time >= spline.keys.back().time)) lex.fail("key times must not decrease");
       k.value = read();
       k.tension = lex.number("tension");
       k.continuity = lex.number("continuity");
       k.bias = lex.number("bias");
+      // BART repeats a key at the same time now and then: the later one wins.
+      if (!spline.keys.empty() && k.time == spline.keys.back().time) spline.keys.pop_back();
       spline.keys.push_back(k);
     }
   }

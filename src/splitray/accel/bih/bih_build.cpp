@@ -161,14 +161,16 @@ class BihBuilder {
   // Binned SAH over the regions the traversal will see: the node's region cut at the left
   // children's maximum and the right children's minimum. Returns axis -1 when a leaf is cheaper.
   Split split_sah(const Task& t, std::uint64_t& evals, bool may_stop) {
-    struct Bin {
-      float max_hi = -std::numeric_limits<float>::infinity();
-      float min_lo = std::numeric_limits<float>::infinity();
-      std::uint32_t count = 0;
+    struct Bin {  // raw: only the bins in use are initialised
+      float max_hi, min_lo;
+      std::uint32_t count;
     };
     const std::size_t n = t.end - t.begin;
-    const CenterBins map(t.bounds.centers, options_.bins);
+    const CenterBins map(t.bounds.centers, static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(options_.bins), 2 * n + 4)));
     Bin bins[3][kMaxBins];
+    for (auto& axis : bins)
+      for (int i = 0; i < map.count; ++i)
+        axis[i] = {-std::numeric_limits<float>::infinity(), std::numeric_limits<float>::infinity(), 0};
     for (std::size_t i = t.begin; i < t.end; ++i) {
       const PrimRef& r = refs_[i];
       for (int a = 0; a < 3; ++a) {

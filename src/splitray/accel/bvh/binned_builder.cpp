@@ -53,7 +53,7 @@ class BinnedBuilder {
     std::size_t n_left;
     int axis;
     if (split.axis >= 0) {
-      n_left = partition_refs(refs, CenterBins(bounds.centers, options_.bins), split, left, right);
+      n_left = partition_refs(refs, CenterBins(bounds.centers, bin_count(options_, n)), split, left, right);
       axis = split.axis;
     } else {  // all centres coincide: halve the list
       n_left = n / 2;

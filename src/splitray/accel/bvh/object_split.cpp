@@ -18,28 +18,39 @@ namespace {
 constexpr std::size_t kParallelRefs = 32768;
 constexpr int kMaxBins = 256;
 
+// Raw storage: only the bins in use are initialised (nodes are many, bins mostly few).
 struct Bin {
-  Aabb box;
-  std::uint32_t count = 0;
+  float lo[3], hi[3];
+  std::uint32_t count;
+  void clear() {
+    for (int k = 0; k < 3; ++k) lo[k] = std::numeric_limits<float>::infinity(), hi[k] = -std::numeric_limits<float>::infinity();
+    count = 0;
+  }
+  void add(const Aabb& b) {
+    for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], b.lo[k]), hi[k] = std::max(hi[k], b.hi[k]);
+    ++count;
+  }
+  void merge(const Bin& o) {
+    for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], o.lo[k]), hi[k] = std::max(hi[k], o.hi[k]);
+    count += o.count;
+  }
+  Aabb box() const { return {{lo[0], lo[1], lo[2]}, {hi[0], hi[1], hi[2]}}; }
 };
 
 struct Bins {
   int n = 0;
-  std::array<std::array<Bin, kMaxBins>, 3> axis;
+  Bin axis[3][kMaxBins];
 
+  explicit Bins(int count) : n(count) {
+    for (auto& a : axis)
+      for (int i = 0; i < n; ++i) a[i].clear();
+  }
   void add(const CenterBins& map, const PrimRef& r) {
-    for (int a = 0; a < 3; ++a) {
-      Bin& b = axis[a][map.bin(r, a)];
-      b.box.extend(r.box);
-      ++b.count;
-    }
+    for (int a = 0; a < 3; ++a) axis[a][map.bin(r, a)].add(r.box);
   }
   void merge(const Bins& o) {
     for (int a = 0; a < 3; ++a)
-      for (int i = 0; i < n; ++i) {
-        axis[a][i].box.extend(o.axis[a][i].box);
-        axis[a][i].count += o.axis[a][i].count;
-      }
+      for (int i = 0; i < n; ++i) axis[a][i].merge(o.axis[a][i]);
   }
 };
 
@@ -79,24 +90,30 @@ int CenterBins::bin(const PrimRef& r, int axis) const {
 ObjectSplit find_object_split(std::span<const PrimRef> refs, const RefBounds& bounds,
                               const BvhBuildOptions& options, std::uint64_t& evals) {
   ObjectSplit best;
-  const CenterBins map(bounds.centers, options.bins);
+  const CenterBins map(bounds.centers, bin_count(options, refs.size()));
   const int n_bins = map.count;
 
-  auto bins = std::make_unique<Bins>();
-  bins->n = n_bins;
-  if (refs.size() < kParallelRefs) {
-    for (const PrimRef& r : refs) bins->add(map, r);
+  const auto bin_all = [&](std::size_t begin, std::size_t end, Bins& bins) {
+    for (std::size_t i = begin; i < end; ++i) bins.add(map, refs[i]);
+  };
+  const bool parallel = refs.size() >= kParallelRefs;
+  Bins local(parallel ? 0 : n_bins);
+  std::unique_ptr<Bins> merged;  // the parallel reduction's result
+  const Bins* bins = &local;
+  if (!parallel) {
+    bin_all(0, refs.size(), local);
   } else {
-    *bins = tbb::parallel_reduce(
-        tbb::blocked_range<std::size_t>(0, refs.size(), 8192), *bins,
+    merged = std::make_unique<Bins>(tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(0, refs.size(), 8192), Bins(n_bins),
         [&](const tbb::blocked_range<std::size_t>& range, Bins acc) {
-          for (std::size_t i = range.begin(); i < range.end(); ++i) acc.add(map, refs[i]);
+          bin_all(range.begin(), range.end(), acc);
           return acc;
         },
         [](Bins a, const Bins& b) {
           a.merge(b);
           return a;
-        });
+        }));
+    bins = merged.get();
   }
 
   const float parent_area = std::max(bounds.box.half_area(), std::numeric_limits<float>::min());
@@ -108,14 +125,14 @@ ObjectSplit find_object_split(std::span<const PrimRef> refs, const RefBounds& bo
     const auto& axis_bins = bins->axis[a];
     Aabb acc;
     for (int i = n_bins - 1; i > 0; --i) {
-      acc.extend(axis_bins[i].box);
+      acc.extend(axis_bins[i].box());
       right_box[i] = acc;
       right_area[i] = acc.half_area();
     }
     Aabb left;
     std::size_t n_left = 0;
     for (int i = 0; i < n_bins - 1; ++i) {
-      left.extend(axis_bins[i].box);
+      left.extend(axis_bins[i].box());
       n_left += axis_bins[i].count;
       const std::size_t n_right = refs.size() - n_left;
       if (n_left == 0 || n_right == 0) continue;

@@ -2,6 +2,7 @@
 // Binned SAH object splits over reference centres, shared by the binned builder and SBVH.
 #include <cstddef>
 #include <cstdint>
+#include <algorithm>
 #include <span>
 
 #include "splitray/accel/bvh/bvh_build.hpp"
@@ -38,11 +39,17 @@ struct ObjectSplit {
   Aabb left, right;   // bounds of the two sides
 };
 
+// Bins for n references: fewer for small nodes, where more would stay empty.
+inline int bin_count(const BvhBuildOptions& options, std::size_t n) {
+  return static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(options.bins), 2 * n + 4));
+}
+
 // The cheapest binned split of `refs` (bounds `bounds`); `evals` counts cost evaluations.
 ObjectSplit find_object_split(std::span<const PrimRef> refs, const RefBounds& bounds,
                               const BvhBuildOptions& options, std::uint64_t& evals);
 
 // Moves the references whose centre bin on split.axis is <= split.bin to the front and
+// (bins = CenterBins(bounds.centers, bin_count(options, refs.size())), as in the search)
 // returns their number, with the bounds of both sides.
 std::size_t partition_refs(std::span<PrimRef> refs, const CenterBins& bins, const ObjectSplit& split,
                            RefBounds& left, RefBounds& right);

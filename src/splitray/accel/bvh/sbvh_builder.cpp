@@ -72,10 +72,10 @@ class SbvhBuilder {
 
   SpatialSplit find_spatial_split(const std::vector<PrimRef>& refs, const Aabb& box, std::uint64_t& evals) const {
     SpatialSplit best;
-    const int count = std::clamp(options_.bins, 2, kMaxSpatialBins);
+    const int count = std::clamp(bin_count(options_, refs.size()), 2, kMaxSpatialBins);
     const float parent_area = std::max(box.half_area(), std::numeric_limits<float>::min());
-    SpatialBin bins[kMaxSpatialBins];
-    Aabb right_box[kMaxSpatialBins];
+    thread_local std::vector<SpatialBin> bins(kMaxSpatialBins);  // scratch, reset per axis below
+    thread_local std::vector<Aabb> right_box(kMaxSpatialBins);
     for (int a = 0; a < 3; ++a) {
       const float lo = box.lo[a], extent = box.hi[a] - box.lo[a];
       if (!(extent > 0)) continue;
@@ -196,7 +196,7 @@ class SbvhBuilder {
     if (!done) {
       std::size_t n_left = n / 2;
       if (object.axis >= 0) {
-        n_left = partition_refs(refs, CenterBins(bounds.centers, options_.bins), object, left_bounds, right_bounds);
+        n_left = partition_refs(refs, CenterBins(bounds.centers, bin_count(options_, n)), object, left_bounds, right_bounds);
         axis = object.axis;
       } else {
         for (std::size_t i = 0; i < n; ++i) (i < n_left ? left_bounds : right_bounds).extend(refs[i]);

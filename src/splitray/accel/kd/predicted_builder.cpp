@@ -79,7 +79,8 @@ class PredictedBuilder {
           prims.axis_events(a), cell, a, cost_, static_cast<float>(center - half),
           static_cast<float>(center + half), static_cast<float>(center));
       evals += r.evals;
-      if (r.best.valid() && !r.at_bracket_edge) {
+      const double leaf = cost_.leaf(prims.size());
+      if (r.best.valid() && !r.at_bracket_edge && r.best.cost <= prediction->max_cost_ratio * leaf) {
         axes[a] = r;
         searched[a] = true;
         record.used_prediction = true;
@@ -138,6 +139,7 @@ class PredictedBuilder {
       record.observation.depth = depth;
       record.observation.axis = axis;
       record.observation.fraction = (split.position - static_cast<double>(cell.lo[axis])) / extent;
+      record.observation.cost_ratio = split.cost / cost_.leaf(n);
       if (record.prediction && record.prediction->axis == axis)
         record.observation.predicted = record.prediction->fraction;
       records_.push_back(record);

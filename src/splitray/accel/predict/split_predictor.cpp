@@ -46,6 +46,7 @@ std::optional<SplitPrediction> SplitPredictor::predict(std::uint64_t path, int d
   }
   p.half_width = std::max(config_.sigmas * std::sqrt(variance), config_.min_half_width);
   if (!(p.half_width <= config_.max_half_width) || !std::isfinite(p.fraction)) return std::nullopt;
+  p.max_cost_ratio = t.cost_ratio * (1 + config_.cost_tolerance);
   p.check_axes = t.margin < config_.axis_margin || t.since_full + 1 >= config_.refresh_frames;
   return p;
 }
@@ -80,6 +81,7 @@ void SplitPredictor::update(std::span<const SplitObservation> observations) {
     } else {
       ++t.since_full;
     }
+    t.cost_ratio = o.cost_ratio;
     t.frame = frame_;
   }
   // Nodes that no longer exist (or were not searched) lose their history.

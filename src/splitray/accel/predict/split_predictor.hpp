@@ -37,6 +37,9 @@ struct PredictorConfig {
   double max_half_width = 0.2;  // wider than this, the prediction is not worth using
   double axis_margin = 0.03;    // trust the predicted axis when the others cost this much more
   int refresh_frames = 8;       // re-check the other axes of a node at least this often
+  // A predicted split whose cost (relative to the node's leaf cost) exceeds last frame's by
+  // more than this share is a local minimum the bracket trapped: search fully instead.
+  double cost_tolerance = 0.02;
 };
 
 struct SplitPrediction {
@@ -44,6 +47,7 @@ struct SplitPrediction {
   double fraction = 0;    // predicted split position as a fraction of the cell on `axis`
   double half_width = 0;  // of the bracket, in fractions of the cell
   bool check_axes = true; // search the other axes as well (margin small or refresh due)
+  double max_cost_ratio = 0;  // accept the bracket's best only up to this cost / leaf cost
 };
 
 // What a build saw at one searched node.
@@ -54,6 +58,7 @@ struct SplitObservation {
   double fraction = 0;
   std::optional<double> axis_margin;     // set when all axes were searched
   std::optional<double> predicted;       // the fraction predicted for this axis, if any
+  double cost_ratio = 0;                 // split cost / leaf cost
 };
 
 class SplitPredictor {
@@ -73,6 +78,7 @@ class SplitPredictor {
   struct Track {
     int depth = 0, axis = 0;
     double margin = 0;       // axis margin at the last full search
+    double cost_ratio = 0;   // split cost / leaf cost in the last frame
     int since_full = 0;      // frames since the last full search
     double error_power = 0;  // running mean square prediction error (Wiener's uncertainty)
     std::variant<KalmanFilter, WienerPredictor> filter;

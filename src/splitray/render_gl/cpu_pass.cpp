@@ -1,0 +1,214 @@
+#include "splitray/render_gl/cpu_pass.hpp"
+
+#include <algorithm>
+#include <optional>
+
+#include "splitray/core/parallel.hpp"
+#include "splitray/core/timer.hpp"
+#include "splitray/render/shading.hpp"
+#include "splitray/render/surface.hpp"
+
+namespace splitray::gl {
+
+namespace {
+constexpr int kMaxShadowCrossings = 16;  // as whitted.cpp
+constexpr std::size_t kRowsPerChunk = 4;
+}  // namespace
+
+// A hit prepared for shading: position, normals turned towards the ray, side.
+struct CpuPass::Surface {
+  const Material* m;
+  Vec3 d, p, ng, ns, n_bounce;
+  bool entering;
+};
+
+CpuPass::CpuPass(const Scene& scene, const FlatScene& flat, const Accel& accel, int max_depth)
+    : scene_(scene), flat_(flat), accel_(accel), max_depth_(max_depth),
+      eps_(offset_epsilon(bounds_of(flat.triangles))) {
+  for (const Material& m : scene.materials) has_transparent_ = has_transparent_ || m.transparency > 0;
+}
+
+CpuPass::Surface CpuPass::surface(const Ray& ray, std::uint32_t prim, float t, float u,
+                                  float v) const {
+  (void)t;
+  const Triangle& tri = flat_.triangles[prim];
+  Surface s;
+  s.m = &scene_.materials[flat_.material[prim]];
+  s.d = normalize(ray.dir);
+  Hit hit;
+  hit.u = u;
+  hit.v = v;
+  s.p = hit_position(tri, hit);
+  s.ng = normalize(tri.geometric_normal());
+  s.entering = dot(s.ng, s.d) < 0;
+  if (!s.entering) s.ng = -s.ng;
+  const auto& vn = flat_.vertex_normals[prim];
+  s.ns = normalize(vn[0] * (1 - u - v) + vn[1] * u + vn[2] * v);
+  if (!(dot(s.ns, s.ns) > 0.5f) || !is_finite(s.ns)) s.ns = s.ng;
+  if (dot(s.ns, s.ng) < 0) s.ns = -s.ns;
+  s.n_bounce = dot(s.d, s.ns) < 0 ? s.ns : s.ng;
+  return s;
+}
+
+Vec3 CpuPass::trace(const Ray& ray, int depth, std::uint64_t& rays) const {
+  ++rays;
+  const Hit hit = accel_.intersect(ray);
+  if (!hit.found()) return scene_.background;
+  return shade(ray, surface(ray, hit.prim, hit.t, hit.u, hit.v), depth, rays);
+}
+
+Vec3 CpuPass::shade(const Ray& ray, const Surface& s, int depth, std::uint64_t& rays) const {
+  const Material& m = *s.m;
+  const float share = diffuse_share(m);
+  Vec3 color = scene_.ambient * m.diffuse * share;
+  for (const Light& light : scene_.lights) {
+    const LightSample ls = sample_light(light, s.p);
+    if (dot(s.ng, ls.to_light) <= 0) continue;
+    const Vec3 c = phong(m, share, s.ns, -s.d, ls);
+    if (c == Vec3{0}) continue;
+    color += c * visibility(s.p + s.ng * eps_, light, rays);
+  }
+  return color + secondary(ray, s, depth, rays);
+}
+
+// Reflection and refraction of a surface hit at `depth` (whitted.cpp's rules).
+Vec3 CpuPass::secondary(const Ray& ray, const Surface& s, int depth, std::uint64_t& rays) const {
+  (void)ray;
+  if (depth >= max_depth_) return Vec3{0};
+  const Material& m = *s.m;
+  float kr = m.reflectivity, kt = m.transparency;
+  std::optional<Vec3> refracted;
+  if (kt > 0) {
+    const float n1 = s.entering ? 1.0f : m.ior, n2 = s.entering ? m.ior : 1.0f;
+    refracted = refract(s.d, s.n_bounce, n1 / n2);
+    if (refracted && dot(*refracted, s.ng) >= 0) refracted = refract(s.d, s.ng, n1 / n2);
+    if (!refracted) {
+      kr += kt;
+      kt = 0;
+    } else if (m.fresnel) {
+      const float f = schlick(n1, n2, std::clamp(-dot(s.d, s.n_bounce), 0.0f, 1.0f),
+                              std::clamp(-dot(*refracted, s.n_bounce), 0.0f, 1.0f));
+      kr += kt * f;
+      kt *= 1 - f;
+    }
+  }
+  Vec3 color{0};
+  if (kr > 0) {
+    Vec3 r = reflect(s.d, s.n_bounce);
+    if (dot(r, s.ng) <= 0) r = reflect(s.d, s.ng);
+    color += trace(Ray{s.p + s.ng * eps_, r}, depth + 1, rays) * kr;
+  }
+  if (kt > 0) color += trace(Ray{s.p - s.ng * eps_, *refracted}, depth + 1, rays) * kt;
+  return color;
+}
+
+float CpuPass::visibility(const Vec3& org, const Light& light, std::uint64_t& rays) const {
+  const LightSample s = sample_light(light, org);
+  Ray ray{org, s.to_light, 0, s.distance};
+  ++rays;
+  if (!accel_.occluded(ray)) return 1;
+  if (!has_transparent_) return 0;
+  float transmitted = 1;
+  for (int crossing = 0; crossing < kMaxShadowCrossings; ++crossing) {
+    ++rays;
+    const Hit hit = accel_.intersect(ray);
+    if (!hit.found()) return transmitted;
+    const Material& m = scene_.materials[flat_.material[hit.prim]];
+    if (m.transparency <= 0) return 0;
+    transmitted *= m.transparency;
+    const Triangle& tri = flat_.triangles[hit.prim];
+    Vec3 ng = normalize(tri.geometric_normal());
+    if (dot(ng, ray.dir) < 0) ng = -ng;
+    ray.org = hit_position(tri, hit) + ng * eps_;
+    const LightSample next = sample_light(light, ray.org);
+    ray.dir = next.to_light;
+    ray.tmax = next.distance;
+  }
+  return 0;
+}
+
+namespace {
+
+// The camera ray's hit on the plane of triangle `tri`: t and barycentrics (u of v1, v of v2).
+bool plane_hit(const Ray& ray, const Triangle& tri, float& t, float& u, float& v) {
+  const Vec3 e1 = tri.v1 - tri.v0, e2 = tri.v2 - tri.v0;
+  const Vec3 pv = cross(ray.dir, e2);
+  const float det = dot(e1, pv);
+  if (det == 0) return false;
+  const float inv = 1 / det;
+  const Vec3 tv = ray.org - tri.v0;
+  u = dot(tv, pv) * inv;
+  const Vec3 qv = cross(tv, e1);
+  v = dot(ray.dir, qv) * inv;
+  t = dot(e2, qv) * inv;
+  // Pixel centres just outside the triangle (rasteriser vs ray at edges): clamp into it.
+  u = std::clamp(u, 0.0f, 1.0f);
+  v = std::clamp(v, 0.0f, 1.0f - u);
+  return true;
+}
+
+}  // namespace
+
+float CpuPass::exact_visibility(const Camera& camera, int width, int height, int x, int y,
+                                std::uint32_t prim, int light, std::uint64_t& rays) const {
+  const Ray ray = camera.generate(x + 0.5f, y + 0.5f, width, height);
+  float t, u, v;
+  if (!plane_hit(ray, flat_.triangles[prim], t, u, v)) return 1;
+  const Surface s = surface(ray, prim, t, u, v);
+  return visibility(s.p + s.ng * eps_, scene_.lights[light], rays);
+}
+
+void CpuPass::run(const CpuPassInput& in, bool secondary_rays, bool refine,
+                  CpuPassOutput& out) const {
+  const Timer timer;
+  const std::size_t n = static_cast<std::size_t>(in.width) * in.height;
+  out.color.assign(n, {0, 0, 0, 0});
+  out.refined = in.mask;
+  const int lights = static_cast<int>(std::min<std::size_t>(scene_.lights.size(), 4));
+  const std::size_t rows = static_cast<std::size_t>(in.height);
+  std::vector<std::uint64_t> row_rays(rows, 0), row_secondary(rows, 0), row_boundary(rows, 0);
+  parallel_chunks(rows, kRowsPerChunk, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t y = begin; y < end; ++y)
+      for (int x = 0; x < in.width; ++x) {
+        const std::size_t i = y * in.width + x;
+        const std::uint32_t id = in.ids[i];
+        if (id == 0) continue;
+        const std::uint32_t prim = id - 1;
+        const Material& m = scene_.materials[flat_.material[prim]];
+        const bool needs_secondary = secondary_rays && (m.reflectivity > 0 || m.transparency > 0);
+        bool any_boundary = false;
+        for (int l = 0; l < lights; ++l) any_boundary = any_boundary || (refine && in.boundary[i][l]);
+        if (!needs_secondary && !any_boundary) continue;
+        const Ray ray = in.camera.generate(x + 0.5f, static_cast<float>(y) + 0.5f, in.width, in.height);
+        float t, u, v;
+        if (!plane_hit(ray, flat_.triangles[prim], t, u, v)) continue;
+        const Surface s = surface(ray, prim, t, u, v);
+        std::uint64_t& rays = row_rays[y];
+        if (any_boundary) {
+          ++row_boundary[y];
+          for (int l = 0; l < lights; ++l)
+            if (in.boundary[i][l]) {
+              const LightSample ls = sample_light(scene_.lights[l], s.p);
+              out.refined[i][l] = dot(s.ng, ls.to_light) <= 0
+                                      ? 0.0f
+                                      : visibility(s.p + s.ng * eps_, scene_.lights[l], rays);
+            }
+        }
+        if (needs_secondary) {
+          ++row_secondary[y];
+          const Vec3 c = secondary(ray, s, 0, rays);
+          out.color[i] = {c.x, c.y, c.z, 0};
+        }
+      }
+  });
+  out.rays = 0;
+  out.secondary_pixels = out.boundary_pixels = 0;
+  for (std::size_t y = 0; y < rows; ++y) {
+    out.rays += row_rays[y];
+    out.secondary_pixels += row_secondary[y];
+    out.boundary_pixels += row_boundary[y];
+  }
+  out.ms = timer.ms();
+}
+
+}  // namespace splitray::gl

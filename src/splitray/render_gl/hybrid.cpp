@@ -1,0 +1,522 @@
+#include "splitray/render_gl/hybrid.hpp"
+
+#include <cmath>
+#include <future>
+#include <string>
+
+#include <glm/gtc/type_ptr.hpp>
+
+#include "splitray/core/errors.hpp"
+#include "splitray/core/parallel.hpp"
+#include "splitray/core/timer.hpp"
+#include "splitray/render/surface.hpp"
+#include "splitray/render_gl/cpu_pass.hpp"
+#include "splitray/render_gl/gl_context.hpp"
+#include "splitray/render_gl/gl_util.hpp"
+#include "splitray/render_gl/light_space.hpp"
+
+namespace splitray {
+
+namespace {
+
+using gl::Program;
+
+// Texture units of the id pass's shadow samplers, one range per sampler array.
+constexpr int kUnitMap = 1, kUnitFlag = 5, kUnitCube = 9, kUnitCubeFlag = 13;
+
+struct Vertex {
+  float position[3], normal[3], geometric_normal[3];
+  std::uint32_t material;
+};
+
+struct MaterialGpu {
+  float diffuse_share[4], specular_shine[4], flags[4];
+};
+
+struct ShadowMap {
+  bool cube = false;
+  int size = 0;
+  GLuint depth = 0, flag = 0;
+  GLuint fbo[6] = {};
+  glm::mat4 matrix{1.0f};  // directional lights
+  float range = 1;         // point lights
+};
+
+// Everything one frame carries between the GPU passes and the CPU pass (double-buffered).
+struct Slot {
+  gl::CpuPassInput input;
+  gl::CpuPassOutput output;
+  HybridFrame frame;
+};
+
+void check_options(const HybridOptions& o) {
+  if (o.width <= 0 || o.height <= 0)
+    throw Error("--size", "the image must be at least 1x1 pixels, got " + std::to_string(o.width) +
+                              "x" + std::to_string(o.height));
+  if (o.max_depth < 0) throw Error("--max-depth", "must be 0 or more");
+  if (o.blur_kernel < 1 || o.blur_kernel % 2 == 0 || o.blur_kernel > 31)
+    throw Error("--blur-kernel", "must be odd and in [1, 31], got " + std::to_string(o.blur_kernel));
+  if (o.shadow_map_size < 16 || o.shadow_map_size > 8192)
+    throw Error("--shadow-map-size", "must be in [16, 8192]");
+}
+
+}  // namespace
+
+struct HybridRenderer::Impl {
+  const Scene& scene;
+  HybridOptions options;
+  FlatScene flat;
+  std::unique_ptr<Accel> accel;
+  std::unique_ptr<gl::CpuPass> cpu;
+  Aabb bounds;
+  std::size_t lights = 0;
+  std::size_t vertex_count = 0;
+
+  GLuint vao = 0, vbo = 0, materials = 0, empty_vao = 0;
+  Program shadow, id, blur, composite;
+  std::vector<ShadowMap> maps;
+  GLuint id_fbo = 0, id_tex = 0, mask_tex = 0, depth_tex = 0;
+  GLuint blur_fbo = 0, boundary_tex = 0;
+  GLuint final_fbo = 0, final_tex = 0, final_depth = 0;
+  GLuint visibility_tex = 0, cpu_tex = 0;
+  GLuint queries[5] = {};
+  Slot slots[2];
+
+  Impl(const Scene& s, const HybridOptions& o) : scene(s), options(o) {
+    check_options(o);
+    scene.validate("scene");
+    if (scene.lights.size() > static_cast<std::size_t>(kMaxHybridLights))
+      throw Error("--mode hybrid", "at most " + std::to_string(kMaxHybridLights) +
+                                       " lights are supported, the scene has " +
+                                       std::to_string(scene.lights.size()));
+    flat = flatten(scene);
+    accel = make_accel(options.accel, flat.triangles, options.build);
+    cpu = std::make_unique<gl::CpuPass>(scene, flat, *accel, options.max_depth);
+    bounds = bounds_of(flat.triangles);
+    lights = scene.lights.size();
+    const char* version = reinterpret_cast<const char*>(glGetString(GL_VERSION));
+    GLint major = 0, minor = 0;
+    glGetIntegerv(GL_MAJOR_VERSION, &major);
+    glGetIntegerv(GL_MINOR_VERSION, &minor);
+    if (major * 10 + minor < 45)
+      throw Error("--mode hybrid", std::string("needs OpenGL 4.5, the context has ") +
+                                       (version ? version : "none"));
+    upload_scene();
+    shadow = Program("scene.vert", "shadow.frag");
+    id = Program("scene.vert", "id.frag", {"lights.glsl"});
+    blur = Program("fullscreen.vert", "blur.frag");
+    composite = Program("scene.vert", "composite.frag", {"lights.glsl"});
+    make_targets();
+    set_static_uniforms();
+    glCreateQueries(GL_TIME_ELAPSED, 5, queries);
+    gl::check_error("creating the hybrid renderer");
+  }
+
+  ~Impl() {
+    glDeleteQueries(5, queries);
+    GLuint textures[] = {id_tex, mask_tex, depth_tex, boundary_tex, final_tex, final_depth,
+                         visibility_tex, cpu_tex};
+    glDeleteTextures(8, textures);
+    GLuint fbos[] = {id_fbo, blur_fbo, final_fbo};
+    glDeleteFramebuffers(3, fbos);
+    for (ShadowMap& m : maps) {
+      glDeleteTextures(1, &m.depth);
+      glDeleteTextures(1, &m.flag);
+      glDeleteFramebuffers(m.cube ? 6 : 1, m.fbo);
+    }
+    glDeleteBuffers(1, &vbo);
+    glDeleteBuffers(1, &materials);
+    glDeleteVertexArrays(1, &vao);
+    glDeleteVertexArrays(1, &empty_vao);
+  }
+
+  void upload_scene() {
+    std::vector<Vertex> vertices(flat.triangles.size() * 3);
+    for (std::size_t t = 0; t < flat.triangles.size(); ++t) {
+      const Triangle& tri = flat.triangles[t];
+      const Vec3 ng = tri.geometric_normal();
+      for (int k = 0; k < 3; ++k) {
+        Vertex& v = vertices[t * 3 + k];
+        const Vec3 p = tri.vertex(k), n = flat.vertex_normals[t][k];
+        for (int c = 0; c < 3; ++c) {
+          v.position[c] = p[c];
+          v.normal[c] = n[c];
+          v.geometric_normal[c] = ng[c];
+        }
+        v.material = flat.material[t];
+      }
+    }
+    vertex_count = vertices.size();
+    glCreateBuffers(1, &vbo);
+    glNamedBufferStorage(vbo, static_cast<GLsizeiptr>(vertices.size() * sizeof(Vertex)),
+                         vertices.data(), 0);
+    glCreateVertexArrays(1, &vao);
+    glVertexArrayVertexBuffer(vao, 0, vbo, 0, sizeof(Vertex));
+    for (GLuint a = 0; a < 3; ++a) {
+      glEnableVertexArrayAttrib(vao, a);
+      glVertexArrayAttribFormat(vao, a, 3, GL_FLOAT, GL_FALSE, a * 3 * sizeof(float));
+      glVertexArrayAttribBinding(vao, a, 0);
+    }
+    glEnableVertexArrayAttrib(vao, 3);
+    glVertexArrayAttribIFormat(vao, 3, 1, GL_UNSIGNED_INT, offsetof(Vertex, material));
+    glVertexArrayAttribBinding(vao, 3, 0);
+    glCreateVertexArrays(1, &empty_vao);
+
+    std::vector<MaterialGpu> mats;
+    for (const Material& m : scene.materials)
+      mats.push_back({{m.diffuse.x, m.diffuse.y, m.diffuse.z,
+                       std::max(0.0f, 1.0f - m.reflectivity - m.transparency)},
+                      {m.specular.x, m.specular.y, m.specular.z, m.shininess},
+                      {m.transparency, 0, 0, 0}});
+    glCreateBuffers(1, &materials);
+    glNamedBufferStorage(materials, static_cast<GLsizeiptr>(mats.size() * sizeof(MaterialGpu)),
+                         mats.data(), 0);
+  }
+
+  void make_targets() {
+    const int w = options.width, h = options.height;
+    for (const Light& light : scene.lights) {
+      ShadowMap m;
+      m.cube = light.kind == Light::Kind::point;
+      m.size = m.cube ? std::max(16, options.shadow_map_size / 2) : options.shadow_map_size;
+      const GLenum target = m.cube ? GL_TEXTURE_CUBE_MAP : GL_TEXTURE_2D;
+      glCreateTextures(target, 1, &m.depth);
+      glTextureStorage2D(m.depth, 1, GL_DEPTH_COMPONENT32F, m.size, m.size);
+      glTextureParameteri(m.depth, GL_TEXTURE_COMPARE_MODE, GL_COMPARE_REF_TO_TEXTURE);
+      glTextureParameteri(m.depth, GL_TEXTURE_COMPARE_FUNC, GL_LEQUAL);
+      glCreateTextures(target, 1, &m.flag);
+      glTextureStorage2D(m.flag, 1, GL_R8, m.size, m.size);
+      for (GLuint t : {m.depth, m.flag}) {
+        glTextureParameteri(t, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+        glTextureParameteri(t, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+        glTextureParameteri(t, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+        glTextureParameteri(t, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+        glTextureParameteri(t, GL_TEXTURE_WRAP_R, GL_CLAMP_TO_EDGE);
+      }
+      const int faces = m.cube ? 6 : 1;
+      glCreateFramebuffers(faces, m.fbo);
+      for (int f = 0; f < faces; ++f) {
+        if (m.cube) {
+          glNamedFramebufferTextureLayer(m.fbo[f], GL_DEPTH_ATTACHMENT, m.depth, 0, f);
+          glNamedFramebufferTextureLayer(m.fbo[f], GL_COLOR_ATTACHMENT0, m.flag, 0, f);
+        } else {
+          glNamedFramebufferTexture(m.fbo[f], GL_DEPTH_ATTACHMENT, m.depth, 0);
+          glNamedFramebufferTexture(m.fbo[f], GL_COLOR_ATTACHMENT0, m.flag, 0);
+        }
+        check_fbo(m.fbo[f], "shadow map");
+      }
+      maps.push_back(m);
+    }
+    id_tex = gl::make_texture_2d(GL_R32UI, w, h);
+    mask_tex = gl::make_texture_2d(GL_RGBA16F, w, h);
+    depth_tex = gl::make_texture_2d(GL_DEPTH_COMPONENT32F, w, h);
+    glCreateFramebuffers(1, &id_fbo);
+    glNamedFramebufferTexture(id_fbo, GL_COLOR_ATTACHMENT0, id_tex, 0);
+    glNamedFramebufferTexture(id_fbo, GL_COLOR_ATTACHMENT1, mask_tex, 0);
+    glNamedFramebufferTexture(id_fbo, GL_DEPTH_ATTACHMENT, depth_tex, 0);
+    const GLenum two[] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
+    glNamedFramebufferDrawBuffers(id_fbo, 2, two);
+    check_fbo(id_fbo, "id buffer");
+    boundary_tex = gl::make_texture_2d(GL_RGBA8, w, h);
+    glCreateFramebuffers(1, &blur_fbo);
+    glNamedFramebufferTexture(blur_fbo, GL_COLOR_ATTACHMENT0, boundary_tex, 0);
+    check_fbo(blur_fbo, "blur buffer");
+    final_tex = gl::make_texture_2d(GL_RGBA32F, w, h);
+    final_depth = gl::make_texture_2d(GL_DEPTH_COMPONENT32F, w, h);
+    glCreateFramebuffers(1, &final_fbo);
+    glNamedFramebufferTexture(final_fbo, GL_COLOR_ATTACHMENT0, final_tex, 0);
+    glNamedFramebufferTexture(final_fbo, GL_DEPTH_ATTACHMENT, final_depth, 0);
+    check_fbo(final_fbo, "composite buffer");
+    visibility_tex = gl::make_texture_2d(GL_RGBA32F, w, h);
+    cpu_tex = gl::make_texture_2d(GL_RGBA32F, w, h);
+  }
+
+  static void check_fbo(GLuint fbo, const char* what) {
+    if (glCheckNamedFramebufferStatus(fbo, GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+      throw Error(std::string("OpenGL: ") + what, "framebuffer incomplete");
+  }
+
+  void set_static_uniforms() {
+    for (const Program* p : {&id, &composite}) {
+      const GLuint prog = p->id();
+      glProgramUniform1i(prog, p->uniform("u_light_count"), static_cast<int>(lights));
+      for (std::size_t i = 0; i < lights; ++i) {
+        const Light& l = scene.lights[i];
+        const auto at = [&](const char* name) {
+          return p->uniform((std::string(name) + "[" + std::to_string(i) + "]").c_str());
+        };
+        const Vec3 to_light = normalize(-l.direction), radiance = l.color * l.intensity;
+        glProgramUniform1i(prog, at("u_light_kind"), l.kind == Light::Kind::point ? 0 : 1);
+        glProgramUniform3f(prog, at("u_light_position"), l.position.x, l.position.y, l.position.z);
+        glProgramUniform3f(prog, at("u_light_direction"), to_light.x, to_light.y, to_light.z);
+        glProgramUniform3f(prog, at("u_light_radiance"), radiance.x, radiance.y, radiance.z);
+      }
+    }
+    for (int i = 0; i < kMaxHybridLights; ++i) {
+      const auto at = [&](const char* name) {
+        return id.uniform((std::string(name) + "[" + std::to_string(i) + "]").c_str());
+      };
+      glProgramUniform1i(id.id(), at("u_shadow_map"), kUnitMap + i);
+      glProgramUniform1i(id.id(), at("u_shadow_flag"), kUnitFlag + i);
+      glProgramUniform1i(id.id(), at("u_shadow_cube"), kUnitCube + i);
+      glProgramUniform1i(id.id(), at("u_cube_flag"), kUnitCubeFlag + i);
+    }
+    glProgramUniform3f(composite.id(), composite.uniform("u_ambient"), scene.ambient.x,
+                       scene.ambient.y, scene.ambient.z);
+    glProgramUniform1i(composite.id(), composite.uniform("u_visibility"), 0);
+    glProgramUniform1i(composite.id(), composite.uniform("u_cpu_color"), 1);
+    glProgramUniform1i(blur.id(), blur.uniform("u_mask"), 0);
+    glProgramUniform1i(blur.id(), blur.uniform("u_ids"), 1);
+  }
+
+  void draw_scene() {
+    glBindVertexArray(vao);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, materials);
+    glDrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(vertex_count));
+  }
+
+  double query_ms(int pass) {
+    GLuint64 ns = 0;
+    glGetQueryObjectui64v(queries[pass], GL_QUERY_RESULT, &ns);
+    return static_cast<double>(ns) * 1e-6;
+  }
+
+  // Pass 1: the shadow maps.
+  void shadow_pass(const Camera& camera) {
+    const float aspect = static_cast<float>(options.width) / static_cast<float>(options.height);
+    const float texel = length(bounds.extent()) / static_cast<float>(options.shadow_map_size);
+    shadow.use();
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_LESS);
+    glDisable(GL_CULL_FACE);
+    for (std::size_t i = 0; i < lights; ++i) {
+      ShadowMap& m = maps[i];
+      const Light& light = scene.lights[i];
+      glViewport(0, 0, m.size, m.size);
+      glProgramUniform1i(shadow.id(), shadow.uniform("u_cube"), m.cube ? 1 : 0);
+      std::array<glm::mat4, 6> matrices;
+      if (m.cube) {
+        float range = 0;
+        for (int c = 0; c < 8; ++c) {
+          const Vec3 corner{(c & 1) ? bounds.hi.x : bounds.lo.x, (c & 2) ? bounds.hi.y : bounds.lo.y,
+                            (c & 4) ? bounds.hi.z : bounds.lo.z};
+          range = std::max(range, length(corner - light.position));
+        }
+        m.range = range * 1.01f + 1e-3f;
+        matrices = gl::cube_face_matrices(light.position, m.range);
+        glProgramUniform3f(shadow.id(), shadow.uniform("u_light_position"), light.position.x,
+                           light.position.y, light.position.z);
+        glProgramUniform1f(shadow.id(), shadow.uniform("u_range"), m.range);
+        glDisable(GL_POLYGON_OFFSET_FILL);
+      } else {
+        m.matrix = gl::directional_light_matrix(camera, aspect, light.direction, bounds, options.lispsm);
+        matrices[0] = m.matrix;
+        glEnable(GL_POLYGON_OFFSET_FILL);
+        glPolygonOffset(2.0f, 4.0f);
+      }
+      for (int f = 0; f < (m.cube ? 6 : 1); ++f) {
+        glBindFramebuffer(GL_FRAMEBUFFER, m.fbo[f]);
+        const float clear_depth = 1, clear_flag[] = {0, 0, 0, 0};
+        glClearNamedFramebufferfv(m.fbo[f], GL_DEPTH, 0, &clear_depth);
+        glClearNamedFramebufferfv(m.fbo[f], GL_COLOR, 0, clear_flag);
+        glProgramUniformMatrix4fv(shadow.id(), shadow.uniform("u_matrix"), 1, GL_FALSE,
+                                  glm::value_ptr(matrices[f]));
+        draw_scene();
+      }
+      glDisable(GL_POLYGON_OFFSET_FILL);
+      const float offset = (m.cube ? 2.0f : 1.5f) * texel;
+      glProgramUniform1f(id.id(), id.uniform(("u_normal_offset[" + std::to_string(i) + "]").c_str()), offset);
+      glProgramUniform1f(id.id(), id.uniform(("u_light_range[" + std::to_string(i) + "]").c_str()), m.range);
+      glProgramUniformMatrix4fv(id.id(), id.uniform(("u_light_matrix[" + std::to_string(i) + "]").c_str()),
+                                1, GL_FALSE, glm::value_ptr(m.matrix));
+      glBindTextureUnit(static_cast<GLuint>((m.cube ? kUnitCube : kUnitMap) + static_cast<int>(i)), m.depth);
+      glBindTextureUnit(static_cast<GLuint>((m.cube ? kUnitCubeFlag : kUnitFlag) + static_cast<int>(i)), m.flag);
+    }
+  }
+
+  // Passes 1-3 of a frame and the read-back into the slot.
+  void gpu_front(const Camera& camera, Slot& slot) {
+    const int w = options.width, h = options.height;
+    slot.frame = HybridFrame{};
+    slot.input.width = w;
+    slot.input.height = h;
+    slot.input.camera = camera;
+
+    glBeginQuery(GL_TIME_ELAPSED, queries[0]);
+    shadow_pass(camera);
+    glEndQuery(GL_TIME_ELAPSED);
+
+    glBeginQuery(GL_TIME_ELAPSED, queries[1]);
+    const glm::mat4 view_projection = gl::camera_matrix(camera, w, h, bounds);
+    glViewport(0, 0, w, h);
+    glBindFramebuffer(GL_FRAMEBUFFER, id_fbo);
+    const GLuint zero_id[] = {0, 0, 0, 0};
+    const float one[] = {1, 1, 1, 1}, clear_depth = 1;
+    glClearNamedFramebufferuiv(id_fbo, GL_COLOR, 0, zero_id);
+    glClearNamedFramebufferfv(id_fbo, GL_COLOR, 1, one);
+    glClearNamedFramebufferfv(id_fbo, GL_DEPTH, 0, &clear_depth);
+    id.use();
+    glProgramUniformMatrix4fv(id.id(), id.uniform("u_matrix"), 1, GL_FALSE, glm::value_ptr(view_projection));
+    glProgramUniform3f(id.id(), id.uniform("u_eye"), camera.eye.x, camera.eye.y, camera.eye.z);
+    glEnable(GL_DEPTH_TEST);
+    draw_scene();
+    glEndQuery(GL_TIME_ELAPSED);
+
+    glBeginQuery(GL_TIME_ELAPSED, queries[2]);
+    glBindFramebuffer(GL_FRAMEBUFFER, blur_fbo);
+    glDisable(GL_DEPTH_TEST);
+    blur.use();
+    glProgramUniform1i(blur.id(), blur.uniform("u_radius"), options.blur_kernel / 2);
+    glBindTextureUnit(0, mask_tex);
+    glBindTextureUnit(1, id_tex);
+    glBindVertexArray(empty_vao);
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    glEndQuery(GL_TIME_ELAPSED);
+
+    // Read back (rows flipped: the image's top row first).
+    const std::size_t n = static_cast<std::size_t>(w) * h;
+    std::vector<std::uint32_t> ids(n);
+    std::vector<std::array<float, 4>> mask(n);
+    std::vector<std::array<std::uint8_t, 4>> boundary(n);
+    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    glGetTextureImage(id_tex, 0, GL_RED_INTEGER, GL_UNSIGNED_INT, static_cast<GLsizei>(n * 4), ids.data());
+    glGetTextureImage(mask_tex, 0, GL_RGBA, GL_FLOAT, static_cast<GLsizei>(n * 16), mask.data());
+    glGetTextureImage(boundary_tex, 0, GL_RGBA, GL_UNSIGNED_BYTE, static_cast<GLsizei>(n * 4), boundary.data());
+    slot.input.ids = flip(ids, w, h);
+    slot.input.mask = flip(mask, w, h);
+    slot.input.boundary = flip(boundary, w, h);
+    for (int p = 0; p < 3; ++p) slot.frame.pass_ms[p] = query_ms(p);
+    gl::check_error("passes 1-3");
+  }
+
+  template <typename T>
+  static std::vector<T> flip(const std::vector<T>& v, int w, int h) {
+    std::vector<T> out(v.size());
+    for (int y = 0; y < h; ++y)
+      std::copy_n(v.begin() + static_cast<std::ptrdiff_t>(h - 1 - y) * w, w,
+                  out.begin() + static_cast<std::ptrdiff_t>(y) * w);
+    return out;
+  }
+
+  void cpu_pass(Slot& slot) {
+    cpu->run(slot.input, options.secondary, options.refine_shadows, slot.output);
+  }
+
+  // Pass 5 and the read-back of the finished frame.
+  void gpu_back(Slot& slot) {
+    const int w = options.width, h = options.height;
+    const std::size_t n = static_cast<std::size_t>(w) * h;
+    const auto refined = flip(slot.output.refined, w, h);
+    const auto color = flip(slot.output.color, w, h);
+    glTextureSubImage2D(visibility_tex, 0, 0, 0, w, h, GL_RGBA, GL_FLOAT, refined.data());
+    glTextureSubImage2D(cpu_tex, 0, 0, 0, w, h, GL_RGBA, GL_FLOAT, color.data());
+
+    glBeginQuery(GL_TIME_ELAPSED, queries[4]);
+    glViewport(0, 0, w, h);
+    glBindFramebuffer(GL_FRAMEBUFFER, final_fbo);
+    const float background[] = {scene.background.x, scene.background.y, scene.background.z, 1};
+    const float clear_depth = 1;
+    glClearNamedFramebufferfv(final_fbo, GL_COLOR, 0, background);
+    glClearNamedFramebufferfv(final_fbo, GL_DEPTH, 0, &clear_depth);
+    composite.use();
+    const Camera& camera = slot.input.camera;
+    glProgramUniformMatrix4fv(composite.id(), composite.uniform("u_matrix"), 1, GL_FALSE,
+                              glm::value_ptr(gl::camera_matrix(camera, w, h, bounds)));
+    glProgramUniform3f(composite.id(), composite.uniform("u_eye"), camera.eye.x, camera.eye.y, camera.eye.z);
+    glBindTextureUnit(0, visibility_tex);
+    glBindTextureUnit(1, cpu_tex);
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_LESS);
+    draw_scene();
+    glEndQuery(GL_TIME_ELAPSED);
+
+    std::vector<std::array<float, 4>> pixels(n);
+    glGetTextureImage(final_tex, 0, GL_RGBA, GL_FLOAT, static_cast<GLsizei>(n * 16), pixels.data());
+    pixels = flip(pixels, w, h);
+    HybridFrame& f = slot.frame;
+    f.pass_ms[3] = slot.output.ms;
+    f.pass_ms[4] = query_ms(4);
+    f.image = Image(w, h);
+    for (std::size_t i = 0; i < n; ++i) f.image.pixels[i] = Vec3{pixels[i][0], pixels[i][1], pixels[i][2]};
+    f.cpu_rays = slot.output.rays;
+    f.secondary_pixels = slot.output.secondary_pixels;
+    f.boundary_pixels = slot.output.boundary_pixels;
+    f.ids = slot.input.ids;
+    f.mask = slot.input.mask;
+    f.refined = slot.output.refined;
+    gl::check_error("pass 5");
+  }
+};
+
+HybridRenderer::HybridRenderer(const Scene& scene, const HybridOptions& options)
+    : impl_(std::make_unique<Impl>(scene, options)) {}
+HybridRenderer::~HybridRenderer() = default;
+
+void HybridRenderer::render(std::span<const Camera> cameras,
+                            const std::function<void(HybridFrame&&)>& done) {
+  Impl& r = *impl_;
+  ThreadLimit limit(r.options.build.threads);
+  std::future<void> pending;  // the CPU pass of the previous frame
+  for (std::size_t k = 0; k < cameras.size(); ++k) {
+    Slot& slot = r.slots[k % 2];
+    r.gpu_front(cameras[k], slot);
+    if (!r.options.interleaved) {
+      r.cpu_pass(slot);
+      r.gpu_back(slot);
+      done(std::move(slot.frame));
+      continue;
+    }
+    if (k > 0) {
+      pending.get();
+      Slot& previous = r.slots[(k - 1) % 2];
+      r.gpu_back(previous);
+      done(std::move(previous.frame));
+    }
+    pending = std::async(std::launch::async, [&r, &slot] { r.cpu_pass(slot); });
+  }
+  if (r.options.interleaved && !cameras.empty()) {
+    pending.get();
+    Slot& last = r.slots[(cameras.size() - 1) % 2];
+    r.gpu_back(last);
+    done(std::move(last.frame));
+  }
+}
+
+HybridFrame HybridRenderer::render_one(const Camera& camera) {
+  HybridFrame result;
+  render(std::span<const Camera>(&camera, 1), [&](HybridFrame&& f) { result = std::move(f); });
+  return result;
+}
+
+unsigned HybridRenderer::last_texture() const { return impl_->final_tex; }
+const AccelStats& HybridRenderer::accel_stats() const { return impl_->accel->stats(); }
+std::size_t HybridRenderer::light_count() const { return impl_->lights; }
+HybridOptions& HybridRenderer::options() { return impl_->options; }
+
+RenderResult render_hybrid(const Scene& scene, const Camera& camera, const HybridOptions& options) {
+  gl::EglContext context;
+  HybridRenderer renderer(scene, options);
+  const Timer timer;
+  HybridFrame frame = renderer.render_one(camera);
+  RenderResult result;
+  result.render_ms = timer.ms();
+  result.image = std::move(frame.image);
+  result.accel_stats = renderer.accel_stats();
+  result.rays = frame.cpu_rays;
+  return result;
+}
+
+double psnr_db(const Image& a, const Image& b) {
+  if (a.width != b.width || a.height != b.height) throw Error("psnr", "images differ in size");
+  const auto x = a.to_srgb8(), y = b.to_srgb8();
+  double sum = 0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    const double d = static_cast<double>(x[i]) - y[i];
+    sum += d * d;
+  }
+  if (sum == 0) return INFINITY;
+  const double mse = sum / static_cast<double>(x.size());
+  return 10 * std::log10(255.0 * 255.0 / mse);
+}
+
+}  // namespace splitray
