@@ -169,13 +169,13 @@ bool same_hit(const Hit& a, const Hit& b) {
          std::bit_cast<std::uint32_t>(a.v) == std::bit_cast<std::uint32_t>(b.v);
 }
 
-// Closest and any hits of kd (sah) equal brute's on rays_per_mesh() rays.
-void expect_brute_hits(const Mesh& mesh, std::uint64_t seed) {
+// Closest and any hits of kd (sah) equal brute's on `count` rays.
+void expect_brute_hits(const Mesh& mesh, std::uint64_t seed, std::size_t count = rays_per_mesh()) {
   const std::vector<Triangle> triangles = mesh.triangles();
   const auto kd = build_kd(triangles);
   const auto brute = make_brute(triangles, {});
   RayMaker maker(mesh, seed);
-  const std::vector<Ray> rays = maker.make(rays_per_mesh());
+  const std::vector<Ray> rays = maker.make(count);
   std::vector<Hit> expected(rays.size()), got(rays.size());
   std::vector<std::uint8_t> occluded(rays.size());
   brute->intersect(rays, expected);
@@ -294,6 +294,8 @@ TEST(KdAccel, HandlesDegenerateRaysLikeBrute) {
     EXPECT_TRUE(same_hit(kd->intersect(ray), brute->intersect(ray))) << describe(ray);
     EXPECT_EQ(kd->occluded(ray), brute->occluded(ray)) << describe(ray);
   }
+  std::vector<Hit> too_few(rays.size() - 1);
+  EXPECT_THROW(kd->intersect(rays, too_few), Error);
 }
 
 TEST(KdAccel, SameTreeForOneAndTwoThreads) {
@@ -460,6 +462,14 @@ TEST(KdAccel, MatchesBruteOnFaerie) {
 TEST(KdAccel, MatchesBruteOnWalkingCat) {
   SPLITRAY_REQUIRE_SHARED(path, "anim_walking_cat/frames/mesh.01.obj");
   expect_brute_hits(load_mesh(path), 4);
+}
+
+// Large scenes cost brute force minutes: run on request (SPLITRAY_KD_TEST_LARGE=1).
+TEST(KdAccel, MatchesBruteOnLargeScenes) {
+  if (std::getenv("SPLITRAY_KD_TEST_LARGE") == nullptr) GTEST_SKIP() << "set SPLITRAY_KD_TEST_LARGE=1 to run";
+  SPLITRAY_REQUIRE_SHARED(sibenik, "static_sibenik/sibenik.obj");
+  expect_brute_hits(load_mesh(sibenik), 5, 20000);
+  expect_brute_hits(load_mesh(test::vendored_file("dragon_100k/dragon.obj.gz")), 6, 20000);
 }
 
 }  // namespace

@@ -500,15 +500,22 @@ class Parser {
     for (std::size_t i = 0; i < n; ++i) {
       typename KbSpline<D>::Key k;
       k.time = lex.number("key time");
-      if (!spline.keys.empty() && !(k.time >= spline.keys.back().time)) lex.fail("key times must not decrease");
       k.value = read();
       k.tension = lex.number("tension");
       k.continuity = lex.number("continuity");
       k.bias = lex.number("bias");
-      // BART repeats a key at the same time now and then: the later one wins.
-      if (!spline.keys.empty() && k.time == spline.keys.back().time) spline.keys.pop_back();
       spline.keys.push_back(k);
     }
+    // BART's files repeat a time or go back in time now and then: order the keys by time,
+    // the later key of one time winning.
+    std::stable_sort(spline.keys.begin(), spline.keys.end(),
+                     [](const auto& a, const auto& b) { return a.time < b.time; });
+    std::vector<typename KbSpline<D>::Key> unique;
+    for (const auto& k : spline.keys) {
+      if (!unique.empty() && unique.back().time == k.time) unique.pop_back();
+      unique.push_back(k);
+    }
+    spline.keys = std::move(unique);
   }
 
   void keyframes(Lexer& lex) {
@@ -524,19 +531,17 @@ class Parser {
           return std::array<double, 3>{v[0], v[1], v[2]};
         });
       } else if (w == "rot") {
-        Quat previous{1, 0, 0, 0};
-        bool first = true;
         spline_keys<4>(lex, k.rotation, [&] {
           const Vec3 axis = lex.vec3("rotation axis");
-          Quat q = axis_angle(axis[0], axis[1], axis[2], lex.number("rotation angle"));
-          // Keep neighbouring quaternions in one hemisphere so the spline takes the short way.
-          const double dot = q[0] * previous[0] + q[1] * previous[1] + q[2] * previous[2] + q[3] * previous[3];
-          if (!first && dot < 0)
-            for (double& c : q) c = -c;
-          previous = q;
-          first = false;
-          return q;
+          return axis_angle(axis[0], axis[1], axis[2], lex.number("rotation angle"));
         });
+        // Neighbouring quaternions in one hemisphere, so the spline takes the short way.
+        for (std::size_t i = 1; i < k.rotation.keys.size(); ++i) {
+          const Quat& p = k.rotation.keys[i - 1].value;
+          Quat& q = k.rotation.keys[i].value;
+          if (p[0] * q[0] + p[1] * q[1] + p[2] * q[2] + p[3] * q[3] < 0)
+            for (double& c : q) c = -c;
+        }
       } else {
         lex.fail("unknown key-frame track '" + w.substr(0, 40) + "' (transl, rot, scale)");
       }
@@ -558,9 +563,6 @@ AffScene& AffScene::operator=(AffScene&&) noexcept = default;
 AffScene AffScene::load(const std::string& path) {
   AffScene scene;
   Parser(*scene.data_, scene.animation_).parse_file(path, 0, 0);
-  for (const Data::Node& n : scene.data_->nodes)
-    if (!n.animation.empty() && !scene.data_->keyframes.count(n.animation))
-      throw Error(path, "transform 'x " + n.animation + "' has no key frames (no 'k " + n.animation + "')");
   if (scene.triangle_count() == 0) throw Error(path, "the scene has no triangles");
   return scene;
 }
@@ -572,7 +574,9 @@ std::vector<Triangle> AffScene::triangles_at(double t) const {
   std::vector<Affine> world(d.nodes.size());
   for (std::size_t i = 1; i < d.nodes.size(); ++i) {  // parents come before children
     const Data::Node& n = d.nodes[i];
-    const Affine local = n.animation.empty() ? n.fixed : d.keyframes.at(n.animation).at(t);
+    // A transform without key frames (BART's robots have one) stays the identity.
+    const auto k = n.animation.empty() ? d.keyframes.end() : d.keyframes.find(n.animation);
+    const Affine local = k == d.keyframes.end() ? n.fixed : k->second.at(t);
     world[i] = world[static_cast<std::size_t>(n.parent)] * local;
   }
   std::vector<Triangle> out;

@@ -80,7 +80,7 @@ inline void scan_leaf(const std::uint32_t* ids, std::uint32_t count, const Vec3*
 // an array indexed by the axis made the compiler store one float and reload two, which
 // stalls store forwarding at every node.
 template <typename Result>
-void search(std::span<const PointNode> nodes, const std::uint32_t* perm,
+void search(std::span<const PointNode> nodes, const std::uint32_t* perm, const LeafBox* boxes,
             std::span<const Vec3> points, const Aabb& bounds, const Vec3& q, Result& result) {
   const bool gather = points.size() < kGatherPoints;
   struct Entry {
@@ -131,9 +131,15 @@ void search(std::span<const PointNode> nodes, const std::uint32_t* perm,
     }
     if (!pruned) {
       const PointNode& leaf = nodes[n];
-      COUNT(g_leaves, 1);
-      COUNT(g_points, leaf.count());
-      scan_leaf(perm + leaf.index, leaf.count(), points.data(), gather, q, result);
+      const LeafBox& box = boxes[leaf.box()];
+      const auto box_gap = [&](int a, float v, float o) {
+        return std::max(std::max(box.lo[a] - v, v - box.hi[a]), o);  // o >= 0
+      };
+      if (bound_of(box_gap(0, q.x, o0), box_gap(1, q.y, o1), box_gap(2, q.z, o2)) <= result.worst()) {
+        COUNT(g_leaves, 1);
+        COUNT(g_points, leaf.count());
+        scan_leaf(perm + leaf.index, leaf.count(), points.data(), gather, q, result);
+      }
     }
     for (;;) {
       if (top == 0) return;
@@ -214,6 +220,22 @@ PointTree::PointTree(std::span<const Vec3> points, const PointTreeConfig& config
   PointBuildOutput built = build_point_tree(points, bounds_, config, radius);
   nodes_ = std::move(built.nodes);
   permutation_ = std::move(built.permutation);
+  // Number the leaves depth first and box their points.
+  std::vector<std::uint32_t> leaves;
+  for (std::uint32_t n = 0; n < nodes_.size(); ++n)
+    if (nodes_[n].is_leaf()) {
+      nodes_[n].below_max = std::bit_cast<float>(static_cast<std::uint32_t>(leaves.size()));
+      leaves.push_back(n);
+    }
+  leaf_boxes_.resize(leaves.size());
+  parallel_chunks(leaves.size(), 1024, [&](std::size_t b, std::size_t e) {
+    for (std::size_t l = b; l < e; ++l) {
+      const PointNode& leaf = nodes_[leaves[l]];
+      Aabb box;
+      for (std::uint32_t i = 0; i < leaf.count(); ++i) box.extend(points[permutation_[leaf.index + i]]);
+      leaf_boxes_[l] = {{box.lo.x, box.lo.y, box.lo.z}, {box.hi.x, box.hi.y, box.hi.z}};
+    }
+  });
 
   config_ = config;
   radius_ = radius;
@@ -227,7 +249,8 @@ PointTreeStats PointTree::stats() const {
   stats.nodes = nodes_.size();
   stats.radius = radius_;
   stats.build_ms = build_ms_;
-  stats.bytes = nodes_.size() * sizeof(PointNode) + permutation_.size() * sizeof(std::uint32_t);
+  stats.bytes = nodes_.size() * sizeof(PointNode) + permutation_.size() * sizeof(std::uint32_t) +
+                leaf_boxes_.size() * sizeof(LeafBox);
   std::vector<std::pair<std::uint32_t, int>> stack{{0u, 0}};
   double depth_sum = 0;
   while (!stack.empty()) {
@@ -260,7 +283,7 @@ int PointTree::knn(const Vec3& query, int k, std::span<std::uint32_t> indices,
 void PointTree::knn_unchecked(const Vec3& query, int k, std::uint32_t* indices,
                               float* distances) const {
   detail::nearest_k(k, indices, distances, [&](auto& set) {
-    search(nodes_, permutation_.data(), points_, bounds_, query, set);
+    search(nodes_, permutation_.data(), leaf_boxes_.data(), points_, bounds_, query, set);
   });
 }
 
@@ -279,7 +302,7 @@ void PointTree::radius(const Vec3& query, float r, std::vector<std::uint32_t>& i
   check_radius(r, "radius search");
   std::vector<detail::WithinRadius::Entry> found;
   detail::WithinRadius within{r * r, &found};
-  search(nodes_, permutation_.data(), points_, bounds_, query, within);
+  search(nodes_, permutation_.data(), leaf_boxes_.data(), points_, bounds_, query, within);
   detail::sort_found(found);
   for (const auto& e : found) {
     indices.push_back(e.index);
@@ -293,7 +316,7 @@ RadiusResult PointTree::radius(std::span<const Vec3> queries, float r) const {
   return detail::gather_radius(queries, coherent_order(queries),
                                [&](std::size_t, const Vec3& point, auto& found) {
                                  detail::WithinRadius within{r2, &found};
-                                 search(nodes_, permutation_.data(), points_, bounds_, point, within);
+                                 search(nodes_, permutation_.data(), leaf_boxes_.data(), points_, bounds_, point, within);
                                });
 }
 

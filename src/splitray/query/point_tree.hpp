@@ -9,6 +9,7 @@
 //   sah    — the same sweep with cell surface areas (paper 003 Eq. 5);
 //   median — the median of the longest axis (balanced).
 // The tree depends only on the points and the config, never on the thread count.
+#include <bit>
 #include <cstdint>
 #include <span>
 #include <string>
@@ -31,7 +32,8 @@ struct PointTreeConfig {
 
 // Interior: the points below have coordinate[axis] <= below_max < above_min <= the points
 // above; the below child follows this node, the above child is `index` nodes further on.
-// Leaf: points permutation[index, index + count).
+// Leaf: points permutation[index, index + count); its tight box is leaf_boxes()[box()]
+// (the number is kept in the bits of below_max, which a leaf has no use for).
 struct PointNode {
   float below_max = 0;
   float above_min = 0;
@@ -41,8 +43,16 @@ struct PointNode {
   bool is_leaf() const { return (bits & 3u) == 3u; }
   int axis() const { return static_cast<int>(bits & 3u); }
   std::uint32_t count() const { return bits >> 2; }
+  std::uint32_t box() const { return std::bit_cast<std::uint32_t>(below_max); }
 };
 static_assert(sizeof(PointNode) == 16);
+
+// The bounding box of a leaf's points: a leaf whose box is farther than the current bound is
+// skipped without touching its points (which live in the caller's array, in no useful order).
+struct LeafBox {
+  float lo[3];
+  float hi[3];
+};
 
 struct PointTreeStats {
   std::string builder;
@@ -85,6 +95,7 @@ class PointTree {
   std::span<const Vec3> points() const { return points_; }
   std::span<const PointNode> nodes() const { return nodes_; }
   std::span<const std::uint32_t> permutation() const { return permutation_; }
+  std::span<const LeafBox> leaf_boxes() const { return leaf_boxes_; }
   const Aabb& bounds() const { return bounds_; }
   double build_ms() const { return build_ms_; }
   float expansion_radius() const { return radius_; }  // the VVH/SAH expansion used
@@ -99,6 +110,7 @@ class PointTree {
   std::span<const Vec3> points_;
   std::vector<PointNode> nodes_;
   std::vector<std::uint32_t> permutation_;
+  std::vector<LeafBox> leaf_boxes_;
   Aabb bounds_;
   PointTreeConfig config_;
   float radius_ = 0;

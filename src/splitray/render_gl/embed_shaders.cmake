@@ -1,5 +1,6 @@
 # Writes OUTPUT: a C++ file holding every file of SHADERS as a raw string literal, looked up
 # by file name through splitray::gl::shader_source().
+string(REPLACE "|" ";" SHADERS "${SHADERS}")
 set(body "// Generated from src/splitray/render_gl/shaders by embed_shaders.cmake; do not edit.\n#include <string>\n#include <string_view>\n#include \"splitray/render_gl/shaders.hpp\"\n#include \"splitray/core/errors.hpp\"\nnamespace splitray::gl {\nstd::string_view shader_source(std::string_view name) {\n")
 foreach(file ${SHADERS})
   get_filename_component(name ${file} NAME)

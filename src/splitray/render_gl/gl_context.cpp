@@ -40,11 +40,14 @@ EglContext::EglContext() {
   if (!eglInitialize(display, &major, &minor)) fail("eglInitialize");
   display_ = display;
   if (!eglBindAPI(EGL_OPENGL_API)) fail("binding the OpenGL API");
-  const EGLint config_attributes[] = {EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_NONE};
-  EGLConfig config = nullptr;
+  // Surfaceless displays offer pbuffer configs (the default asks for windows); without any,
+  // a config-less context (EGL_KHR_no_config_context) still renders into framebuffer objects.
+  const EGLint config_attributes[] = {EGL_SURFACE_TYPE, EGL_PBUFFER_BIT, EGL_RENDERABLE_TYPE,
+                                      EGL_OPENGL_BIT, EGL_NONE};
+  EGLConfig config = EGL_NO_CONFIG_KHR;
   EGLint configs = 0;
   if (!eglChooseConfig(display, config_attributes, &config, 1, &configs) || configs < 1)
-    fail("choosing an OpenGL EGL config");
+    config = EGL_NO_CONFIG_KHR;
   const EGLint context_attributes[] = {EGL_CONTEXT_MAJOR_VERSION, 4,
                                        EGL_CONTEXT_MINOR_VERSION, 5,
                                        EGL_CONTEXT_OPENGL_PROFILE_MASK,

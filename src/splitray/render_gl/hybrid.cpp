@@ -102,10 +102,10 @@ struct HybridRenderer::Impl {
       throw Error("--mode hybrid", std::string("needs OpenGL 4.5, the context has ") +
                                        (version ? version : "none"));
     upload_scene();
-    shadow = Program("scene.vert", "shadow.frag");
-    id = Program("scene.vert", "id.frag", {"lights.glsl"});
-    blur = Program("fullscreen.vert", "blur.frag");
-    composite = Program("scene.vert", "composite.frag", {"lights.glsl"});
+    shadow = Program("scene.vert.glsl", "shadow.frag.glsl");
+    id = Program("scene.vert.glsl", "id.frag.glsl", {"lights.glsl"});
+    blur = Program("fullscreen.vert.glsl", "blur.frag.glsl");
+    composite = Program("scene.vert.glsl", "composite.frag.glsl", {"lights.glsl"});
     make_targets();
     set_static_uniforms();
     glCreateQueries(GL_TIME_ELAPSED, 5, queries);

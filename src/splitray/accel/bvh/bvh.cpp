@@ -48,6 +48,7 @@ Bvh Bvh::from_pieces(std::span<const Triangle> triangles, const BvhPiece& root) 
     }
   });
   bvh.update_scene_bounds();
+  bvh.wide_.collapse(bvh.nodes_);
   return bvh;
 }
 
@@ -77,11 +78,13 @@ void Bvh::refit(std::span<const Triangle> triangles) {
     n.lo = box.lo;
     n.hi = box.hi;
   }
+  wide_.update_boxes(nodes_);
   update_scene_bounds();
 }
 
 std::size_t Bvh::bytes() const {
-  return nodes_.size() * sizeof(BvhNode) + ids_.size() * sizeof(std::uint32_t) + tris_.size() * sizeof(Triangle);
+  return nodes_.size() * sizeof(BvhNode) + wide_.bytes() + ids_.size() * sizeof(std::uint32_t) +
+         tris_.size() * sizeof(Triangle);
 }
 
 void Bvh::fill_stats(AccelStats& stats, float traversal_cost, float intersection_cost) const {
@@ -121,5 +124,20 @@ void Bvh::fill_stats(AccelStats& stats, float traversal_cost, float intersection
   stats.mean_leaf_prims = static_cast<double>(stats.prim_refs) / static_cast<double>(stats.leaves);
   stats.sah_cost = cost.value();
 }
+
+}  // namespace splitray
+
+namespace splitray {
+
+Hit Bvh::intersect(const Ray& ray) const {
+  Hit hit;
+  if (nodes_.empty()) return hit;
+  hit.t = ray.tmax;
+  wide_.intersect(ray, scene_, magnitude_, tris_, ids_, hit);
+  if (!hit.found()) hit.t = kInfinity;
+  return hit;
+}
+
+bool Bvh::occluded(const Ray& ray) const { return !nodes_.empty() && wide_.occluded(ray, scene_, magnitude_, tris_); }
 
 }  // namespace splitray

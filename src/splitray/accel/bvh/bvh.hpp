@@ -1,7 +1,9 @@
 #pragma once
-// A binary BVH over triangles: 32-byte nodes (children side by side, pairs cache-line
-// aligned), leaves referencing copies of their triangles, ordered closest-hit and any-hit
-// traversal with a fixed stack, and refitting for meshes that deform with fixed topology.
+// A BVH over triangles: built as a binary tree of 32-byte nodes (children side by side,
+// pairs cache-line aligned; what builders, refit and statistics work on), traversed in its
+// eight-wide collapsed form (wide_bvh.hpp: one SIMD slab test per eight children, nearest
+// child first, fixed stack). Leaves reference copies of their triangles. Refitting moves
+// the boxes for meshes that deform with fixed topology.
 //
 //   Bvh bvh = Bvh::build(triangles, "sbvh", BvhBuildOptions::from(config));
 //   Hit hit = bvh.intersect(ray);
@@ -13,6 +15,7 @@
 
 #include "splitray/accel/accel.hpp"
 #include "splitray/accel/bvh/bvh_build.hpp"
+#include "splitray/accel/bvh/wide_bvh.hpp"
 
 namespace splitray {
 
@@ -50,6 +53,7 @@ class Bvh {
   void fill_stats(AccelStats& stats, float traversal_cost, float intersection_cost) const;
 
   std::span<const BvhNode> nodes() const { return nodes_; }
+  const WideBvh& wide() const { return wide_; }
   std::span<const std::uint32_t> prim_ids() const { return ids_; }  // leaf references, leaf order
   std::size_t triangle_count() const { return triangle_count_; }
   const Aabb& bounds() const { return scene_; }
@@ -59,6 +63,7 @@ class Bvh {
   void update_scene_bounds();
 
   std::vector<BvhNode, CacheAligned<BvhNode>> nodes_;  // root at 0, slot 1 unused
+  WideBvh wide_;                                       // the traversal layout
   std::vector<std::uint32_t> ids_;                     // triangle id of each leaf reference
   std::vector<Triangle> tris_;                         // the triangle of each leaf reference
   std::size_t triangle_count_ = 0;

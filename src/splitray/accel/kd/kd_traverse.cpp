@@ -16,6 +16,7 @@
 
 #include "splitray/accel/kd/kd_accel.hpp"
 #include "splitray/accel/kd/kd_sah.hpp"
+#include "splitray/core/errors.hpp"
 #include "splitray/core/parallel.hpp"
 
 namespace splitray {
@@ -136,12 +137,14 @@ bool KdAccel::occluded(const Ray& ray) const {
 }
 
 void KdAccel::intersect(std::span<const Ray> rays, std::span<Hit> hits) const {
+  if (hits.size() < rays.size()) throw Error("kd intersect", "fewer hit slots than rays");
   parallel_chunks(rays.size(), 256, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) hits[i] = KdAccel::intersect(rays[i]);
   });
 }
 
 void KdAccel::occluded(std::span<const Ray> rays, std::span<std::uint8_t> result) const {
+  if (result.size() < rays.size()) throw Error("kd occluded", "fewer result slots than rays");
   parallel_chunks(rays.size(), 256, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) result[i] = KdAccel::occluded(rays[i]) ? 1 : 0;
   });
