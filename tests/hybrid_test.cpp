@@ -2,6 +2,7 @@
 // (Mesa's llvmpipe where there is no GPU). Skipped with a message when EGL cannot start.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <memory>
 
@@ -99,6 +100,9 @@ TEST_F(HybridTest, AgreesWithWhitted) {
       mask.pixels[i] = Vec3{frame.mask[i][0], frame.mask[i][1], frame.refined[i][0]};
     write_png("hybrid_test_mask.png", mask);
   }
+  std::printf("hybrid vs whitted: %.2f dB, cpu rays %llu of %llu\n", psnr,
+              static_cast<unsigned long long>(frame.cpu_rays),
+              static_cast<unsigned long long>(reference.rays));
   EXPECT_GE(psnr, 33.0);
   EXPECT_GT(frame.secondary_pixels, 0u);
   EXPECT_GT(frame.boundary_pixels, 0u);
@@ -136,7 +140,9 @@ TEST_F(HybridTest, RefinementFixesShadowMapErrors) {
   const auto accel = make_accel("kd", flat.triangles);
   gl::CpuPass exact(scene, flat, *accel, 0);
   std::size_t wrong_raw = 0, wrong_refined = 0;
+  std::size_t wrong_raw_light[kMaxHybridLights] = {}, wrong_refined_light[kMaxHybridLights] = {};
   std::uint64_t rays = 0;
+  Image wrong(o.width, o.height);  // red: the shadow map is wrong, green: still wrong refined
   for (int y = 0; y < o.height; ++y)
     for (int x = 0; x < o.width; ++x) {
       const std::size_t i = static_cast<std::size_t>(y) * o.width + x;
@@ -144,10 +150,20 @@ TEST_F(HybridTest, RefinementFixesShadowMapErrors) {
       for (std::size_t l = 0; l < scene.lights.size(); ++l) {
         const float v = exact.exact_visibility(*scene.camera, o.width, o.height, x, y,
                                                frame.ids[i] - 1, static_cast<int>(l), rays);
-        wrong_raw += (frame.mask[i][l] > 0.5f) != (v > 0.5f);
-        wrong_refined += (frame.refined[i][l] > 0.5f) != (v > 0.5f);
+        const bool raw_bad = (frame.mask[i][l] > 0.5f) != (v > 0.5f);
+        const bool refined_bad = (frame.refined[i][l] > 0.5f) != (v > 0.5f);
+        wrong_raw += raw_bad;
+        wrong_refined += refined_bad;
+        wrong_raw_light[l] += raw_bad;
+        wrong_refined_light[l] += refined_bad;
+        if (raw_bad) wrong.pixels[i].x = 1;
+        if (refined_bad) wrong.pixels[i].y = 1;
       }
     }
+  if (std::getenv("SPLITRAY_HYBRID_DUMP")) write_png("hybrid_test_wrong_shadows.png", wrong);
+  for (std::size_t l = 0; l < scene.lights.size(); ++l)
+    std::printf("light %zu: %zu wrong shadow-map pixels, %zu after refinement\n", l,
+                wrong_raw_light[l], wrong_refined_light[l]);
   EXPECT_GT(wrong_raw, 0u);
   EXPECT_LE(wrong_refined * 10, wrong_raw);  // >= 90% of the shadow map's errors removed
 }

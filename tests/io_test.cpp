@@ -1,9 +1,8 @@
 // Mesh and scene loading: every format on real data and on small fixtures, gzip, the JSON
 // scene format, and one test per kind of malformed or hostile input.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <zlib.h>
-
-#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -11,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 
@@ -48,7 +48,8 @@ std::string write(const fs::path& dir, const std::string& name, const std::strin
 
 std::string gzip(const std::string& data) {
   z_stream zs{};
-  EXPECT_EQ(deflateInit2(&zs, Z_BEST_SPEED, Z_DEFLATED, 16 + MAX_WBITS, 8, Z_DEFAULT_STRATEGY), Z_OK);
+  EXPECT_EQ(deflateInit2(&zs, Z_BEST_SPEED, Z_DEFLATED, 16 + MAX_WBITS, 8, Z_DEFAULT_STRATEGY),
+            Z_OK);
   std::string out(deflateBound(&zs, data.size()), '\0');
   zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(data.data()));
   zs.avail_in = static_cast<uInt>(data.size());
@@ -61,14 +62,17 @@ std::string gzip(const std::string& data) {
 }
 
 // The call must throw an Error whose message starts with `path` and contains `word`.
-void expect_error(const std::function<void()>& call, const std::string& path, const std::string& word) {
+void expect_error(const std::function<void()>& call, const std::string& path,
+                  const std::string& word) {
   try {
     call();
     ADD_FAILURE() << "no error for " << path << " (expected one mentioning '" << word << "')";
   } catch (const Error& e) {
     const std::string message = e.what();
-    EXPECT_TRUE(message.starts_with(path + ":")) << "message does not start with the path: " << message;
-    EXPECT_NE(message.find(word), std::string::npos) << "'" << word << "' missing from: " << message;
+    EXPECT_TRUE(message.starts_with(path + ":"))
+        << "message does not start with the path: " << message;
+    EXPECT_NE(message.find(word), std::string::npos)
+        << "'" << word << "' missing from: " << message;
   }
 }
 
@@ -104,10 +108,14 @@ double total_area(const Mesh& mesh) {
 class Io : public ::testing::Test {
  protected:
   fs::path dir() {
-    if (dir_.empty()) dir_ = test::temp_dir(std::string("io_") + ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    if (dir_.empty())
+      dir_ = test::temp_dir(std::string("io_") +
+                            ::testing::UnitTest::GetInstance()->current_test_info()->name());
     return dir_;
   }
-  std::string file(const std::string& name, const std::string& bytes) { return write(dir(), name, bytes); }
+  std::string file(const std::string& name, const std::string& bytes) {
+    return write(dir(), name, bytes);
+  }
 
  private:
   fs::path dir_;
@@ -148,16 +156,20 @@ TEST(IoRealData, FaerieMd2IsTheFirstFrame) {
   EXPECT_EQ(mesh.normals.size(), mesh.positions.size());
   // assimp turns MD2's Z-up into Y-up: (x, y, z) -> (x, z, -y).
   const Aabb baked = load_mesh(frame0).bounds();
-  expect_box(mesh.bounds(), {baked.lo.x, baked.lo.z, -baked.hi.y}, {baked.hi.x, baked.hi.z, -baked.lo.y}, 1e-3f);
+  expect_box(mesh.bounds(), {baked.lo.x, baked.lo.z, -baked.hi.y},
+             {baked.hi.x, baked.hi.z, -baked.lo.y}, 1e-3f);
 }
 
 TEST(IoRealData, CcdFramePairsBinaryPly) {
   const std::pair<const char*, std::size_t> scenes[] = {
-      {"armadillo-rollers/frames/326.ply", 24242}, {"armadillo-rollers/frames/327.ply", 24242},
-      {"cloth-funnel/frames/227.ply", 18484},      {"cloth-funnel/frames/228.ply", 18484},
+      {"armadillo-rollers/frames/326.ply", 24242},
+      {"armadillo-rollers/frames/327.ply", 24242},
+      {"cloth-funnel/frames/227.ply", 18484},
+      {"cloth-funnel/frames/228.ply", 18484},
       {"n-body-simulation/frames/balls16_18.ply", 146480},  // big-endian with colours
       {"n-body-simulation/frames/balls16_19.ply", 146480},
-      {"rod-twist/frames/3036.ply", 79864},        {"rod-twist/frames/3037.ply", 79864}};
+      {"rod-twist/frames/3036.ply", 79864},
+      {"rod-twist/frames/3037.ply", 79864}};
   for (const auto& [name, triangles] : scenes) {
     SPLITRAY_REQUIRE_SHARED(path, std::string("anim_ccd_frame_pairs/") + name);
     EXPECT_EQ(load_mesh(path).triangle_count(), triangles) << name;
@@ -212,7 +224,7 @@ TEST(IoFormats, UnitCubeInEveryFormat) {
 
 TEST(IoFormats, ObjConcavePolygonAndRelativeIndices) {
   const Mesh mesh = load_mesh(fixture("polygons.obj"));
-  EXPECT_EQ(mesh.triangle_count(), 5u);  // L-shaped hexagon: 4, triangle: 1
+  EXPECT_EQ(mesh.triangle_count(), 5u);      // L-shaped hexagon: 4, triangle: 1
   EXPECT_NEAR(total_area(mesh), 3.5, 1e-6);  // concave polygon triangulated inside its outline
 }
 
@@ -245,18 +257,21 @@ TEST(IoFormats, Md2) {
 }
 
 TEST_F(Io, NonSimplePolygonKeepsAllItsTriangles) {  // assimp 5.2 would leave some out
-  const std::string path = file("bowtie.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3 4 1 2 3 4\n");
+  const std::string path =
+      file("bowtie.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3 4 1 2 3 4\n");
   EXPECT_EQ(load_mesh(path).triangle_count(), 6u);
 }
 
 TEST_F(Io, DegenerateTrianglesAreKept) {
-  const std::string path = file("degenerate.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nf 1 2 4\nf 1 2 3\nf 1 1 4\n");
+  const std::string path =
+      file("degenerate.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nf 1 2 4\nf 1 2 3\nf 1 1 4\n");
   const Mesh mesh = load_mesh(path);
   EXPECT_EQ(mesh.triangle_count(), 3u);
 }
 
 TEST_F(Io, ObjNormalsAreKept) {
-  const std::string path = file("normals.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 2\nf 1//1 2//1 3//1\n");
+  const std::string path =
+      file("normals.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 2\nf 1//1 2//1 3//1\n");
   const Mesh mesh = load_mesh(path);
   ASSERT_EQ(mesh.normals.size(), 3u);
   for (const Vec3& n : mesh.normals) EXPECT_EQ(n, (Vec3{0, 0, 1}));
@@ -282,7 +297,8 @@ TEST_F(Io, GzipReadsLikeThePlainFile) {
 TEST_F(Io, GzipWithSeveralMembers) {
   const std::string text = read_text(fixture("cube.obj"));
   const std::size_t half = text.size() / 2;
-  const std::string path = file("cube.obj.gz", gzip(text.substr(0, half)) + gzip(text.substr(half)));
+  const std::string path =
+      file("cube.obj.gz", gzip(text.substr(0, half)) + gzip(text.substr(half)));
   EXPECT_EQ(load_mesh(path).triangle_count(), 12u);
 }
 
@@ -303,7 +319,8 @@ void check_triangulation(const std::vector<Vec3>& polygon, bool simple = true) {
   triangulate_polygon(polygon, triangles);
   ASSERT_EQ(triangles.size(), polygon.size() - 2);
   Vec3 normal{};  // Newell
-  for (std::size_t i = 0; i < polygon.size(); ++i) normal += cross(polygon[i], polygon[(i + 1) % polygon.size()]);
+  for (std::size_t i = 0; i < polygon.size(); ++i)
+    normal += cross(polygon[i], polygon[(i + 1) % polygon.size()]);
   const double polygon_area = 0.5 * length(normal);
   double area = 0;
   for (const auto& t : triangles) {
@@ -319,7 +336,8 @@ void check_triangulation(const std::vector<Vec3>& polygon, bool simple = true) {
 }
 
 TEST(IoTriangulate, ConvexPolygonIsTheFanFromCornerZero) {
-  const std::vector<Vec3> hexagon{{2, 0, 0}, {1, 1.7f, 0}, {-1, 1.7f, 0}, {-2, 0, 0}, {-1, -1.7f, 0}, {1, -1.7f, 0}};
+  const std::vector<Vec3> hexagon{{2, 0, 0},  {1, 1.7f, 0},   {-1, 1.7f, 0},
+                                  {-2, 0, 0}, {-1, -1.7f, 0}, {1, -1.7f, 0}};
   std::vector<std::array<std::uint32_t, 3>> triangles;
   triangulate_polygon(hexagon, triangles);
   const std::vector<std::array<std::uint32_t, 3>> fan{{0, 1, 2}, {0, 2, 3}, {0, 3, 4}, {0, 4, 5}};
@@ -355,7 +373,8 @@ TEST(IoTriangulate, ConcavePolygonsInBothWindingsAndTilted) {
 TEST(IoTriangulate, CollinearAndRepeatedCorners) {
   check_triangulation({{0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {2, 2, 0}, {1, 2, 0}, {0, 2, 0}});
   check_triangulation({{0, 0, 0}, {1, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}});
-  check_triangulation({{0, 0, 0}, {1, 0, 0}, {2, 0, 0}}, false);  // flat: n - 2 degenerate triangles
+  check_triangulation({{0, 0, 0}, {1, 0, 0}, {2, 0, 0}},
+                      false);  // flat: n - 2 degenerate triangles
   check_triangulation({{0, 0, 0}, {1, 1, 0}, {1, 0, 0}, {0, 1, 0}}, false);  // bow tie
 }
 
@@ -366,10 +385,21 @@ TEST_F(Io, Directory) {
   fs::create_directory(dir() / "folder.obj");
   expect_mesh_error((dir() / "folder.obj").string(), "directory");
 }
+TEST_F(Io, Fifo) {  // reading it would block forever
+  const std::string path = (dir() / "pipe.obj").string();
+  ASSERT_EQ(mkfifo(path.c_str(), 0600), 0);
+  expect_mesh_error(path, "not a regular file");
+}
 TEST_F(Io, EmptyFile) { expect_mesh_error(file("empty.obj", ""), "empty"); }
-TEST_F(Io, NoExtension) { expect_mesh_error(file("cube", read_text(fixture("cube.obj"))), "extension"); }
-TEST_F(Io, UnknownExtension) { expect_mesh_error(file("cube.xyz", read_text(fixture("cube.obj"))), "not a mesh format"); }
-TEST_F(Io, GzWithoutInnerExtension) { expect_mesh_error(file("cube.gz", gzip(read_text(fixture("cube.obj")))), "extension"); }
+TEST_F(Io, NoExtension) {
+  expect_mesh_error(file("cube", read_text(fixture("cube.obj"))), "extension");
+}
+TEST_F(Io, UnknownExtension) {
+  expect_mesh_error(file("cube.xyz", read_text(fixture("cube.obj"))), "not a mesh format");
+}
+TEST_F(Io, GzWithoutInnerExtension) {
+  expect_mesh_error(file("cube.gz", gzip(read_text(fixture("cube.obj")))), "extension");
+}
 
 // ---------------------------------------------------------------- truncated files
 
@@ -392,7 +422,9 @@ TEST_F(Io, ObjCutInsideAVertexLine) {
   expect_mesh_error(file("cut.obj", "v 0 0 0\nv 1 0 0\nv 0 1"), "3 coordinates");
 }
 TEST_F(Io, PlyHeaderWithoutEnd) {  // assimp 5.2 loops forever on this one
-  expect_mesh_error(file("header.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"), "end_header");
+  expect_mesh_error(
+      file("header.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"),
+      "end_header");
 }
 TEST_F(Io, OffCutShort) {
   const std::string text = read_text(fixture("cube.off"));
@@ -406,8 +438,9 @@ TEST_F(Io, GlbCutShort) {
 // Every prefix of a binary fixture is an error; every prefix of a text fixture is an error or
 // a valid mesh; nothing crashes (run under the sanitizer build too).
 TEST_F(Io, EveryPrefixOfEveryFixture) {
-  for (const char* name : {"cube_binary.ply", "cube_binary_be.ply", "cube_binary.stl", "quads.glb", "quad.md2",
-                           "cube.obj", "cube_ascii.ply", "cube_ascii.stl", "cube.off", "quads.gltf", "quad.dae"}) {
+  for (const char* name :
+       {"cube_binary.ply", "cube_binary_be.ply", "cube_binary.stl", "quads.glb", "quad.md2",
+        "cube.obj", "cube_ascii.ply", "cube_ascii.stl", "cube.off", "quads.gltf", "quad.dae"}) {
     const std::string bytes = read_text(fixture(name));
     const bool binary = std::string(name).find("binary") != std::string::npos ||
                         std::string(name).ends_with(".glb") || std::string(name).ends_with(".md2");
@@ -489,7 +522,8 @@ TEST_F(Io, ObjIndexZero) {
   expect_mesh_error(file("zero.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n"), "start at 1");
 }
 TEST_F(Io, ObjNormalIndexOutOfRange) {  // assimp ignores this one
-  expect_mesh_error(file("oob.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//2\n"), "normal 2");
+  expect_mesh_error(file("oob.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//2\n"),
+                    "normal 2");
 }
 TEST_F(Io, ObjGarbageInAFace) {
   expect_mesh_error(file("bad.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n"), "line 4");
@@ -533,6 +567,16 @@ TEST_F(Io, ColladaGarbageInAnIndexList) {  // assimp 5.2 allocates without end o
   text.replace(text.find("<p>0 1 2 3</p>"), 14, "<p>0 1 x 3</p>");
   expect_mesh_error(file("garbage.dae", text), "not a number");
 }
+TEST_F(Io, ColladaArrayWithoutCount) {  // assimp 5.2 dereferences a null pointer on this one
+  std::string text = read_text(fixture("quad.dae"));
+  text.replace(text.find(" count=\"12\""), 11, "");
+  expect_mesh_error(file("nocount.dae", text), "without a count");
+}
+TEST_F(Io, ColladaAccessorReadsPastItsArray) {  // assimp 5.2 reads garbage coordinates
+  std::string text = read_text(fixture("quad.dae"));
+  text.replace(text.find("count=\"12\">0 0 0 1 0 0 1 1 0 0 1 0"), 34, "count=\"3\">0 0 0");
+  expect_mesh_error(file("short.dae", text), "reads 12 values but the array has 3");
+}
 TEST_F(Io, GltfDeepNodeChain) {  // would overflow the stack of assimp's recursive node reader
   nlohmann::json doc = nlohmann::json::parse(read_text(fixture("quads.gltf")));
   doc["nodes"] = nlohmann::json::array();
@@ -542,14 +586,17 @@ TEST_F(Io, GltfDeepNodeChain) {  // would overflow the stack of assimp's recursi
 }
 TEST_F(Io, GltfDeepJson) {
   std::string text = read_text(fixture("quads.gltf"));
-  text.insert(text.rfind('}'), ",\"extras\":" + std::string(100000, '[') + std::string(100000, ']'));
+  text.insert(text.rfind('}'),
+              ",\"extras\":" + std::string(100000, '[') + std::string(100000, ']'));
   expect_mesh_error(file("deep.gltf", text), "deeper");
 }
 TEST_F(Io, GltfMissingExternalBuffer) {
-  expect_mesh_error(file("lonely.gltf", read_text(fixture("quads_external.gltf"))), "quads_external.bin");
+  expect_mesh_error(file("lonely.gltf", read_text(fixture("quads_external.gltf"))),
+                    "quads_external.bin");
 }
 TEST_F(Io, ObjWithANulByte) {
-  expect_mesh_error(file("nul.obj", std::string("v 0 0 0\nv 1 0 0\0\nv 0 1 0\nf 1 2 3\n", 33)), "NUL");
+  expect_mesh_error(file("nul.obj", std::string("v 0 0 0\nv 1 0 0\0\nv 0 1 0\nf 1 2 3\n", 33)),
+                    "NUL");
 }
 
 // ---------------------------------------------------------------- NaN and infinity
@@ -616,16 +663,19 @@ TEST_F(Io, NotGzipAtAll) {
   expect_mesh_error(file("plain.obj.gz", read_text(fixture("cube.obj"))), "not gzip");
 }
 TEST_F(Io, GzipWithTrailingGarbage) {
-  expect_mesh_error(file("trailing.obj.gz", gzip(read_text(fixture("cube.obj"))) + "garbage"), "after the end");
+  expect_mesh_error(file("trailing.obj.gz", gzip(read_text(fixture("cube.obj"))) + "garbage"),
+                    "after the end");
 }
 TEST_F(Io, GzipOfNothing) { expect_mesh_error(file("nothing.obj.gz", gzip("")), "empty"); }
 
 TEST(IoGzip, DecompressionStopsAtTheLimit) {
   // 8 MiB of zeros compress to a few KiB: a small bomb against a 1 MiB limit.
   const std::string bomb = gzip(std::string(8 << 20, '\0'));
-  const std::span<const unsigned char> bytes(reinterpret_cast<const unsigned char*>(bomb.data()), bomb.size());
+  const std::span<const unsigned char> bytes(reinterpret_cast<const unsigned char*>(bomb.data()),
+                                             bomb.size());
   expect_error([&] { gunzip(bytes, "bomb.obj.gz", 1 << 20); }, "bomb.obj.gz", "limit");
-  EXPECT_EQ(gunzip(bytes, "bomb.obj.gz", 8 << 20).size(), std::size_t{8} << 20);  // exactly at the limit
+  EXPECT_EQ(gunzip(bytes, "bomb.obj.gz", 8 << 20).size(),
+            std::size_t{8} << 20);  // exactly at the limit
   EXPECT_EQ(kMaxInputBytes, std::size_t{2} << 30);
 }
 
@@ -685,9 +735,11 @@ class IoSceneFile : public Io {
 };
 
 TEST_F(IoSceneFile, TransformStepsApplyInOrder) {
-  const Scene a = load_scene(scene(R"({"instances": [{"mesh": "cube.obj", "transform": [{"scale": 2}, {"translate": [1, 0, 0]}]}]})"));
+  const Scene a = load_scene(scene(
+      R"({"instances": [{"mesh": "cube.obj", "transform": [{"scale": 2}, {"translate": [1, 0, 0]}]}]})"));
   expect_box(bounds(flatten(a).triangles), {1, 0, 0}, {3, 2, 2});
-  const Scene b = load_scene(scene(R"({"instances": [{"mesh": "cube.obj", "transform": [{"translate": [1, 0, 0]}, {"scale": 2}]}]})"));
+  const Scene b = load_scene(scene(
+      R"({"instances": [{"mesh": "cube.obj", "transform": [{"translate": [1, 0, 0]}, {"scale": 2}]}]})"));
   expect_box(bounds(flatten(b).triangles), {2, 0, 0}, {4, 2, 2});
 }
 
@@ -697,13 +749,14 @@ TEST_F(IoSceneFile, MatrixForms) {
       {"mesh": "cube.obj", "transform": {"rotate": {"axis": [0, 0, 1], "degrees": 90}}}]})"));
   const FlatScene flat = flatten(s);
   expect_box(bounds({flat.triangles.begin(), flat.triangles.begin() + 12}), {3, 0, 0}, {4, 1, 1});
-  expect_box(bounds({flat.triangles.begin() + 12, flat.triangles.end()}), {-1, 0, 0}, {0, 1, 1}, 1e-6f);
+  expect_box(bounds({flat.triangles.begin() + 12, flat.triangles.end()}), {-1, 0, 0}, {0, 1, 1},
+             1e-6f);
 }
 
 TEST_F(IoSceneFile, Defaults) {
   const Scene s = load_scene(scene(R"({"instances": [{"mesh": "cube.obj"}]})"));
   EXPECT_EQ(s.materials.size(), 1u);
-  EXPECT_EQ(s.lights.size(), 1u);  // a light where scene_from_mesh puts one
+  EXPECT_EQ(s.lights.size(), 1u);     // a light where scene_from_mesh puts one
   EXPECT_TRUE(s.camera.has_value());  // framed around the scene
   const Scene dark = load_scene(scene(R"({"instances": [{"mesh": "cube.obj"}], "lights": []})"));
   EXPECT_TRUE(dark.lights.empty());
@@ -714,8 +767,15 @@ TEST_F(IoSceneFile, Defaults) {
 }
 
 TEST_F(IoSceneFile, AbsoluteMeshPath) {
-  const Scene s = load_scene(scene(R"({"instances": [{"mesh": ")" + fixture("cube.off") + R"("}]})"));
+  const Scene s =
+      load_scene(scene(R"({"instances": [{"mesh": ")" + fixture("cube.off") + R"("}]})"));
   EXPECT_EQ(s.meshes.at(0).triangle_count(), 12u);
+}
+
+TEST_F(IoSceneFile, Gzipped) {
+  scene("");  // puts cube.obj beside it
+  const std::string path = file("scene.json.gz", gzip(R"({"instances": [{"mesh": "cube.obj"}]})"));
+  EXPECT_EQ(load_scene(path).instances.size(), 1u);
 }
 
 TEST_F(IoSceneFile, NotThere) {
@@ -723,99 +783,131 @@ TEST_F(IoSceneFile, NotThere) {
   expect_error([&] { load_scene(path); }, path, "no such file");
 }
 TEST_F(IoSceneFile, InvalidJson) { expect_scene_error(R"({"instances": [)", "invalid JSON"); }
+TEST_F(IoSceneFile, NestedTooDeep) {
+  expect_scene_error(R"({"instances": [{"mesh": "cube.obj"}], "x": )" + std::string(100, '[') +
+                         std::string(100, ']') + "}",
+                     "deeper than 64");
+}
 TEST_F(IoSceneFile, NotAnObject) { expect_scene_error(R"([1, 2])", "expected an object"); }
 TEST_F(IoSceneFile, DuplicateKey) {
-  expect_scene_error(R"({"instances": [{"mesh": "cube.obj", "mesh": "cube.obj"}]})", "duplicate key 'mesh'");
+  expect_scene_error(R"({"instances": [{"mesh": "cube.obj", "mesh": "cube.obj"}]})",
+                     "duplicate key 'mesh'");
 }
 TEST_F(IoSceneFile, UnknownTopLevelKey) {
-  expect_scene_error(R"({"instances": [{"mesh": "cube.obj"}], "lighting": []})", "unknown key 'lighting'");
+  expect_scene_error(R"({"instances": [{"mesh": "cube.obj"}], "lighting": []})",
+                     "unknown key 'lighting'");
 }
 TEST_F(IoSceneFile, UnknownNestedKey) {
   expect_scene_error(R"({"instances": [{"mesh": "cube.obj", "transform": [{"rotat": 1}]}]})",
                      "instances[0].transform[0]: unknown key 'rotat'");
 }
 TEST_F(IoSceneFile, UnknownMaterialKey) {
-  expect_scene_error(R"({"materials": [{"name": "m", "colour": 1}], "instances": [{"mesh": "cube.obj"}]})",
-                     "materials[0]: unknown key 'colour'");
+  expect_scene_error(
+      R"({"materials": [{"name": "m", "colour": 1}], "instances": [{"mesh": "cube.obj"}]})",
+      "materials[0]: unknown key 'colour'");
 }
 TEST_F(IoSceneFile, IntensityOnADirectionalLight) {
   expect_scene_error(R"({"instances": [{"mesh": "cube.obj"}],
                          "lights": [{"type": "directional", "direction": [0, -1, 0], "intensity": 2}]})",
                      "lights[0]: unknown key 'intensity'");
 }
-TEST_F(IoSceneFile, MissingInstances) { expect_scene_error(R"({"lights": []})", "missing required key 'instances'"); }
-TEST_F(IoSceneFile, NoInstances) { expect_scene_error(R"({"instances": []})", "at least one instance"); }
-TEST_F(IoSceneFile, MissingMesh) { expect_scene_error(R"({"instances": [{"material": "default"}]})", "'mesh'"); }
+TEST_F(IoSceneFile, MissingInstances) {
+  expect_scene_error(R"({"lights": []})", "missing required key 'instances'");
+}
+TEST_F(IoSceneFile, NoInstances) {
+  expect_scene_error(R"({"instances": []})", "at least one instance");
+}
+TEST_F(IoSceneFile, MissingMesh) {
+  expect_scene_error(R"({"instances": [{"material": "default"}]})", "'mesh'");
+}
 TEST_F(IoSceneFile, MissingCameraEye) {
   expect_scene_error(R"({"instances": [{"mesh": "cube.obj"}], "camera": {"target": [0, 0, 0]}})",
                      "camera: missing required key 'eye'");
 }
 TEST_F(IoSceneFile, MissingLightType) {
-  expect_scene_error(R"({"instances": [{"mesh": "cube.obj"}], "lights": [{"position": [0, 1, 0]}]})",
-                     "lights[0]: missing required key 'type'");
+  expect_scene_error(
+      R"({"instances": [{"mesh": "cube.obj"}], "lights": [{"position": [0, 1, 0]}]})",
+      "lights[0]: missing required key 'type'");
 }
 TEST_F(IoSceneFile, MissingMaterialName) {
   expect_scene_error(R"({"materials": [{"diffuse": 1}], "instances": [{"mesh": "cube.obj"}]})",
                      "materials[0]: missing required key 'name'");
 }
 TEST_F(IoSceneFile, WrongTypeNumber) {
-  expect_scene_error(R"({"instances": [{"mesh": "cube.obj"}], "camera": {"eye": [0, 0, 5], "target": [0, 0, 0], "fov": "wide"}})",
-                     "camera.fov: expected a number, got a string");
+  expect_scene_error(
+      R"({"instances": [{"mesh": "cube.obj"}], "camera": {"eye": [0, 0, 5], "target": [0, 0, 0], "fov": "wide"}})",
+      "camera.fov: expected a number, got a string");
 }
 TEST_F(IoSceneFile, WrongTypeVector) {
-  expect_scene_error(R"({"instances": [{"mesh": "cube.obj"}], "camera": {"eye": [0, 5], "target": [0, 0, 0]}})",
-                     "camera.eye: expected an array of 3 numbers");
+  expect_scene_error(
+      R"({"instances": [{"mesh": "cube.obj"}], "camera": {"eye": [0, 5], "target": [0, 0, 0]}})",
+      "camera.eye: expected an array of 3 numbers");
 }
 TEST_F(IoSceneFile, WrongTypeInstances) {
-  expect_scene_error(R"({"instances": {"mesh": "cube.obj"}})", "instances: expected an array, got an object");
+  expect_scene_error(R"({"instances": {"mesh": "cube.obj"}})",
+                     "instances: expected an array, got an object");
 }
 TEST_F(IoSceneFile, WrongTypeBoolean) {
-  expect_scene_error(R"({"materials": [{"name": "m", "fresnel": 1}], "instances": [{"mesh": "cube.obj"}]})",
-                     "materials[0].fresnel: expected true or false");
+  expect_scene_error(
+      R"({"materials": [{"name": "m", "fresnel": 1}], "instances": [{"mesh": "cube.obj"}]})",
+      "materials[0].fresnel: expected true or false");
 }
 TEST_F(IoSceneFile, ValueOutOfRange) {
-  expect_scene_error(R"({"materials": [{"name": "m", "reflectivity": 2}], "instances": [{"mesh": "cube.obj"}]})",
-                     "materials[0].reflectivity: must be between 0 and 1");
+  expect_scene_error(
+      R"({"materials": [{"name": "m", "reflectivity": 2}], "instances": [{"mesh": "cube.obj"}]})",
+      "materials[0].reflectivity: must be between 0 and 1");
 }
 TEST_F(IoSceneFile, NegativeColour) {
-  expect_scene_error(R"({"instances": [{"mesh": "cube.obj"}], "background": [0, -1, 0]})", "must not be negative");
+  expect_scene_error(R"({"instances": [{"mesh": "cube.obj"}], "background": [0, -1, 0]})",
+                     "must not be negative");
 }
 TEST_F(IoSceneFile, UnknownMaterial) {
-  expect_scene_error(R"({"instances": [{"mesh": "cube.obj", "material": "gold"}]})", "unknown material 'gold'");
+  expect_scene_error(R"({"instances": [{"mesh": "cube.obj", "material": "gold"}]})",
+                     "unknown material 'gold'");
 }
 TEST_F(IoSceneFile, DuplicateMaterial) {
-  expect_scene_error(R"({"materials": [{"name": "m"}, {"name": "m"}], "instances": [{"mesh": "cube.obj"}]})",
-                     "duplicate material name 'm'");
+  expect_scene_error(
+      R"({"materials": [{"name": "m"}, {"name": "m"}], "instances": [{"mesh": "cube.obj"}]})",
+      "duplicate material name 'm'");
 }
 TEST_F(IoSceneFile, UnknownLightType) {
-  expect_scene_error(R"({"instances": [{"mesh": "cube.obj"}], "lights": [{"type": "spot", "position": [0, 1, 0]}]})",
-                     "unknown light type 'spot'");
+  expect_scene_error(
+      R"({"instances": [{"mesh": "cube.obj"}], "lights": [{"type": "spot", "position": [0, 1, 0]}]})",
+      "unknown light type 'spot'");
 }
 TEST_F(IoSceneFile, ZeroScale) {
-  expect_scene_error(R"({"instances": [{"mesh": "cube.obj", "transform": {"scale": [1, 0, 1]}}]})", "must not be zero");
+  expect_scene_error(R"({"instances": [{"mesh": "cube.obj", "transform": {"scale": [1, 0, 1]}}]})",
+                     "must not be zero");
 }
 TEST_F(IoSceneFile, SingularMatrix) {
-  expect_scene_error(R"({"instances": [{"mesh": "cube.obj", "transform": {"matrix": [1,0,0,0, 1,0,0,0, 0,0,1,0]}}]})",
-                     "singular");
+  expect_scene_error(
+      R"({"instances": [{"mesh": "cube.obj", "transform": {"matrix": [1,0,0,0, 1,0,0,0, 0,0,1,0]}}]})",
+      "singular");
 }
 TEST_F(IoSceneFile, ProjectiveMatrix) {
-  expect_scene_error(R"({"instances": [{"mesh": "cube.obj", "transform": {"matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,1,1]}}]})",
-                     "0 0 0 1");
+  expect_scene_error(
+      R"({"instances": [{"mesh": "cube.obj", "transform": {"matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,1,1]}}]})",
+      "0 0 0 1");
 }
 TEST_F(IoSceneFile, TwoKeysInOneTransformStep) {
-  expect_scene_error(R"({"instances": [{"mesh": "cube.obj", "transform": {"scale": 2, "translate": [1, 0, 0]}}]})",
-                     "exactly one");
+  expect_scene_error(
+      R"({"instances": [{"mesh": "cube.obj", "transform": {"scale": 2, "translate": [1, 0, 0]}}]})",
+      "exactly one");
 }
 TEST_F(IoSceneFile, NumberTooLargeForAFloat) {
-  expect_scene_error(R"({"instances": [{"mesh": "cube.obj", "transform": {"translate": [1e39, 0, 0]}}]})", "too large");
+  expect_scene_error(
+      R"({"instances": [{"mesh": "cube.obj", "transform": {"translate": [1e39, 0, 0]}}]})",
+      "too large");
 }
 TEST_F(IoSceneFile, MeshFileMissing) {
   const std::string path = scene(R"({"instances": [{"mesh": "cube.obj"}, {"mesh": "gone.obj"}]})");
-  expect_error([&] { load_scene(path); }, path, "instances[1].mesh: " + (dir() / "gone.obj").string() + ": no such file");
+  expect_error([&] { load_scene(path); }, path,
+               "instances[1].mesh: " + (dir() / "gone.obj").string() + ": no such file");
 }
 TEST_F(IoSceneFile, MeshFileBroken) {
   file("bad.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99\n");
-  expect_scene_error(R"({"instances": [{"mesh": "bad.obj"}]})", "bad.obj: line 4: face refers to vertex 99");
+  expect_scene_error(R"({"instances": [{"mesh": "bad.obj"}]})",
+                     "bad.obj: line 4: face refers to vertex 99");
 }
 
 }  // namespace

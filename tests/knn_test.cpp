@@ -360,6 +360,12 @@ TEST(KnnTest, BadInputIsAClearError) {
   EXPECT_NE(message([&] { make_neighbor_index(points, {.builder = "octree"}); }).find("octree"),
             std::string::npos);
   EXPECT_NE(message([&] { PointTree t(points, {.leaf_size = 0}); }).find("leaf size"), std::string::npos);
+  const std::vector<Vec3> bad_queries{Vec3(0, 0, 0), Vec3(0, std::numeric_limits<float>::infinity(), 0)};
+  for (const std::string& name : neighbor_index_names()) {
+    const auto index = make_neighbor_index(points, {.builder = name});
+    EXPECT_NE(message([&] { index->knn(bad_queries, 1); }).find("query 1"), std::string::npos) << name;
+    EXPECT_NE(message([&] { index->radius(bad_queries, 1); }).find("query 1"), std::string::npos) << name;
+  }
 }
 
 TEST(KnnTest, SurfaceSamplesAreReproducibleAndOnTheSurface) {

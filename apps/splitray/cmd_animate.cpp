@@ -42,7 +42,7 @@ struct AnimateCommand {
   std::size_t rays = 16384;
   std::uint64_t seed = 1;
   bool json = false;
-  std::string csv, plot, render_dir;
+  std::string csv, plot, render_dir, results, name;
 };
 
 struct FrameRow {
@@ -137,6 +137,42 @@ void render_frame(const std::vector<Triangle>& triangles, const Camera& camera, 
   const RenderResult result = render_whitted(scene_from_mesh(mesh_of(triangles)), camera, options);
   fs::create_directories(dir);
   write_png((fs::path(dir) / fmt::format("frame-{:04d}.png", index)).string(), result.image);
+}
+
+// The sequence's name for --results: --name, else the folder of the frames (its parent when
+// that is called "frames").
+std::string sequence_name(const AnimateCommand& command, const FrameSequence& sequence) {
+  if (!command.name.empty()) return command.name;
+  fs::path dir = fs::path(sequence.label(0)).parent_path();
+  if (dir.filename() == "frames" || dir.filename() == "aff") dir = dir.parent_path();
+  return dir.filename().string();
+}
+
+// Merges `summary` into the results file (runs keyed "sequence/predictor") and rewrites it
+// and its Markdown table (same name, .md), both atomically.
+void write_results(const std::string& path, const std::string& key, const Json& summary) {
+  Json all = Json::object();
+  if (fs::exists(path)) {
+    std::ifstream in(path);
+    all = Json::parse(in, nullptr, false);
+    if (all.is_discarded() || !all.is_object()) throw Error("--results " + path, "not a JSON object; refusing to overwrite it");
+  }
+  all["runs"][key] = summary;
+  write_file_atomically(path, all.dump(2) + "\n");
+  std::string md =
+      "| sequence / predictor | frames | triangles | full ms | predicted ms | sah ms | reduction | "
+      "sah_cost_ratio | trace_ratio | mean err | predicted nodes |\n"
+      "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+  for (const auto& [name, r] : all["runs"].items()) {
+    md += fmt::format("| {} | {} | {} | {:.1f} | {:.1f} | {:.1f} | {:.3f} | {:.4f} | {:.3f} | {:.4f} | {:.2f} |\n", name,
+                      r.value("frames", 0), r.value("triangles", 0), r.value("mean_build_ms_full", 0.0),
+                      r.value("mean_build_ms_predicted", 0.0), r.value("mean_build_ms_sah", 0.0),
+                      r.value("reduction", 0.0), r.value("sah_cost_ratio", 0.0), r.value("trace_ratio", 0.0),
+                      r.value("mean_prediction_error", 0.0), r.value("predicted_node_share", 0.0));
+  }
+  fs::path md_path(path);
+  md_path.replace_extension(".md");
+  write_file_atomically(md_path.string(), md);
 }
 
 void run_embree(const AnimateCommand& command, const std::vector<std::vector<Triangle>>& frames) {
@@ -293,6 +329,8 @@ void run(AnimateCommand command) {
       {"threads", effective_threads(command.accel.build.threads)},
       {"first_frame", sequence.label(0)},
   };
+  if (!command.results.empty())
+    write_results(command.results, sequence_name(command, sequence) + "/" + command.predictor, summary);
   if (command.json) {
     print_json(summary);
     return;
@@ -341,6 +379,9 @@ void add_animate_command(CLI::App& app) {
   sub->add_flag("--json", command->json, "Print the summary as one JSON object");
   sub->add_option("--csv", command->csv, "Write per-frame rows to this CSV file");
   sub->add_option("--plot", command->plot, "Draw build times and root splits (paper Fig. 7) to this PNG");
+  sub->add_option("--results", command->results,
+                  "Merge the summary into this JSON file (and its .md table), keyed sequence/predictor");
+  sub->add_option("--name", command->name, "Name of the sequence in --results (default: its folder)");
   sub->add_option("--render", command->render_dir, "Render every frame as a PNG into this folder");
   sub->callback([command] { run(*command); });
 }

@@ -13,6 +13,9 @@
 #include "splitray/io/mesh_io.hpp"
 #include "splitray/render/default_scene.hpp"
 #include "splitray/render/whitted.hpp"
+#if SPLITRAY_HAS_RENDER_GL
+#include "splitray/render_gl/hybrid.hpp"
+#endif
 
 namespace splitray::app {
 
@@ -25,6 +28,7 @@ struct RenderCommand {
   int width = 800;
   int height = 600;
   int max_depth = 5;
+  std::string mode = "whitted";  // or "hybrid" (GPU + CPU, paper 002)
   AccelOptions accel;
   bool json = false;
 };
@@ -37,6 +41,26 @@ void check_output_path(const std::string& output) {
     throw Error(output, "cannot write: folder " + parent.string() + " does not exist");
   if (std::filesystem::is_directory(output, error))
     throw Error(output, "cannot write: it is a folder");
+}
+
+// --mode hybrid: the five-pass GPU + CPU renderer in a headless OpenGL context; its ray count
+// is the CPU's rays only. Builds without render_gl and machines without OpenGL 4.5 get an Error.
+RenderResult render_mode(const RenderCommand& command, const Scene& scene, const Camera& camera,
+                         const RenderOptions& options) {
+  if (command.mode != "hybrid") return render_whitted(scene, camera, options);
+#if SPLITRAY_HAS_RENDER_GL
+  HybridOptions hybrid;
+  hybrid.width = options.width;
+  hybrid.height = options.height;
+  hybrid.max_depth = options.max_depth;
+  hybrid.accel = options.accel;
+  hybrid.build = options.build;
+  return render_hybrid(scene, camera, hybrid);
+#else
+  (void)scene;
+  (void)camera;
+  throw Error("--mode hybrid", "this splitray was built without OpenGL (SPLITRAY_WITH_GL=OFF)");
+#endif
 }
 
 void run(const RenderCommand& command) {
@@ -60,7 +84,7 @@ void run(const RenderCommand& command) {
   options.build = command.accel.build;
   bar.status(fmt::format("building {} on the scene ...", command.accel.accel));
   options.progress = [&bar](double fraction) { bar.update(fraction); };
-  const RenderResult result = render_whitted(scene, camera, options);
+  const RenderResult result = render_mode(command, scene, camera, options);
   bar.finish();
   write_png(command.output, result.image);
 
@@ -74,6 +98,7 @@ void run(const RenderCommand& command) {
                 {"width", command.width},
                 {"height", command.height},
                 {"max_depth", command.max_depth},
+                {"mode", command.mode},
                 {"threads", threads},
                 {"triangles", stats.prims},
                 {"accel", stats.accel},
@@ -94,8 +119,8 @@ void run(const RenderCommand& command) {
                                 stats.bytes / (1024.0 * 1024.0))},
       {"load", fmt::format("{:.1f} ms", load_ms)},
       {"build", fmt::format("{:.1f} ms", stats.build_ms)},
-      {"render", fmt::format("{:.1f} ms, {} threads, max depth {}", result.render_ms, threads,
-                             command.max_depth)},
+      {"render", fmt::format("{:.1f} ms ({}), {} threads, max depth {}", result.render_ms,
+                             command.mode, threads, command.max_depth)},
       {"rays", fmt::format("{} ({:.2f} Mrays/s)", result.rays, mrays_per_s)},
   });
 }
@@ -119,6 +144,10 @@ void add_render_command(CLI::App& app) {
           "default: the scene's camera, or one framed on the scene");
   sub->add_option("-d,--max-depth", command->max_depth, "Reflection and refraction bounces")
       ->check(CLI::Range(0, 64));
+  sub->add_option("--mode", command->mode,
+                  "whitted: CPU ray tracing; hybrid: primary rays and shadow maps on the GPU "
+                  "(OpenGL 4.5, headless), reflections and shadow boundaries on the CPU")
+      ->check(CLI::IsMember({"whitted", "hybrid"}));
   add_accel_options(*sub, command->accel);
   sub->add_flag("--json", command->json, "Print the summary as one JSON object");
   sub->callback([command] { run(*command); });

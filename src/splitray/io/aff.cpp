@@ -149,8 +149,8 @@ struct AnimTriangle {
 struct AffScene::Data {
   struct Node {
     int parent = -1;
-    Affine fixed;            // `xs`
-    std::string animation;   // `x NAME` (empty: fixed)
+    Affine fixed;           // `xs`
+    std::string animation;  // `x NAME` (empty: fixed)
   };
   std::vector<Node> nodes{Node{}};  // 0 = the world
   std::map<std::string, Keyframes> keyframes;
@@ -205,7 +205,8 @@ class Lexer {
     const std::string t = word(what);
     char* end = nullptr;
     const double v = std::strtod(t.c_str(), &end);
-    if (t.empty() || end != t.c_str() + t.size()) fail("'" + t + "' is not a number (" + what + ")");
+    if (t.empty() || end != t.c_str() + t.size())
+      fail("'" + t + "' is not a number (" + what + ")");
     if (!std::isfinite(v)) fail(std::string("a non-finite ") + what);
     return v;
   }
@@ -258,7 +259,8 @@ class Parser {
 
  private:
   void add(Lexer& lex, int node, const Triangle& t) {
-    if (data_.triangles.size() + data_.animated.size() >= kMaxTriangles) lex.fail("too many triangles");
+    if (data_.triangles.size() + data_.animated.size() >= kMaxTriangles)
+      lex.fail("too many triangles");
     data_.triangles.push_back(t);
     data_.triangle_node.push_back(node);
   }
@@ -326,7 +328,8 @@ class Parser {
       expect_open(lex);
       AffScene::Data::Node n;
       n.parent = node;
-      n.fixed = trs({tr[0], tr[1], tr[2]}, axis_angle(axis[0], axis[1], axis[2], angle), {s[0], s[1], s[2]});
+      n.fixed = trs({tr[0], tr[1], tr[2]}, axis_angle(axis[0], axis[1], axis[2], angle),
+                    {s[0], s[1], s[2]});
       data_.nodes.push_back(n);
       return parse_block(lex, static_cast<int>(data_.nodes.size() - 1), depth, true);
     }
@@ -402,7 +405,8 @@ class Parser {
     };
     for (int i = 0; i < kSphereRings; ++i)
       for (int j = 0; j < kSphereSegments; ++j) {
-        const Vec3 a = point(i, j), b = point(i + 1, j), cc = point(i + 1, j + 1), d = point(i, j + 1);
+        const Vec3 a = point(i, j), b = point(i + 1, j), cc = point(i + 1, j + 1),
+                   d = point(i, j + 1);
         if (i + 1 < kSphereRings) add(lex, node, {a, b, cc});
         if (i > 0) add(lex, node, {a, cc, d});
       }
@@ -421,7 +425,8 @@ class Parser {
     const Vec3 u = normalize(cross(w, helper)), v = cross(w, u);
     const auto ring = [&](const Vec3& centre, double r, int k) {
       const double phi = 2 * std::numbers::pi * k / kConeSegments;
-      const float cu = static_cast<float>(r * std::cos(phi)), sv = static_cast<float>(r * std::sin(phi));
+      const float cu = static_cast<float>(r * std::cos(phi)),
+                  sv = static_cast<float>(r * std::sin(phi));
       return centre + u * cu + v * sv;
     };
     for (int k = 0; k < kConeSegments; ++k) {
@@ -453,7 +458,8 @@ class Parser {
           std::size_t idx[3];
           for (auto& k : idx) {
             k = lex.count("vertex index");
-            if (k >= vertices.size()) lex.fail("vertex index " + std::to_string(k) + " out of range");
+            if (k >= vertices.size())
+              lex.fail("vertex index " + std::to_string(k) + " out of range");
           }
           if (normals) skip_index(lex, normals, "normal index");
           if (texcoords) skip_index(lex, texcoords, "texture coordinate index");
@@ -461,7 +467,8 @@ class Parser {
         }
         return;
       } else {
-        lex.fail("unknown mesh section '" + w.substr(0, 40) + "' (vertices, normals, texturecoords, triangles)");
+        lex.fail("unknown mesh section '" + w.substr(0, 40) +
+                 "' (vertices, normals, texturecoords, triangles)");
       }
     }
   }
@@ -480,7 +487,8 @@ class Parser {
     a.node = node;
     for (std::size_t i = 0; i < n; ++i) {
       const double time = lex.number("key time");
-      if (!a.keys.empty() && !(time > a.keys.back().first)) lex.fail("animated triangle key times must increase");
+      if (!a.keys.empty() && !(time > a.keys.back().first))
+        lex.fail("animated triangle key times must increase");
       Vec3 v[3];
       for (auto& p : v) {
         p = lex.vec3("vertex");
@@ -488,7 +496,8 @@ class Parser {
       }
       a.keys.push_back({time, {v[0], v[1], v[2]}});
     }
-    if (data_.triangles.size() + data_.animated.size() >= kMaxTriangles) lex.fail("too many triangles");
+    if (data_.triangles.size() + data_.animated.size() >= kMaxTriangles)
+      lex.fail("too many triangles");
     data_.animated.push_back(std::move(a));
   }
 
@@ -567,7 +576,9 @@ AffScene AffScene::load(const std::string& path) {
   return scene;
 }
 
-std::size_t AffScene::triangle_count() const { return data_->triangles.size() + data_->animated.size(); }
+std::size_t AffScene::triangle_count() const {
+  return data_->triangles.size() + data_->animated.size();
+}
 
 std::vector<Triangle> AffScene::triangles_at(double t) const {
   const Data& d = *data_;

@@ -1,7 +1,6 @@
 #include "splitray/io/assimp_buffer_io.hpp"
 
 #include <assimp/IOStream.hpp>
-
 #include <cstring>
 #include <filesystem>
 
@@ -23,7 +22,9 @@ class BufferStream : public Assimp::IOStream {
   aiReturn Seek(size_t offset, aiOrigin origin) override {
     size_t target = 0;
     switch (origin) {
-      case aiOrigin_SET: target = offset; break;
+      case aiOrigin_SET:
+        target = offset;
+        break;
       case aiOrigin_CUR:
         if (offset > bytes_.size() - pos_) return AI_FAILURE;
         target = pos_ + offset;
@@ -32,7 +33,8 @@ class BufferStream : public Assimp::IOStream {
         if (offset > bytes_.size()) return AI_FAILURE;
         target = bytes_.size() - offset;
         break;
-      default: return AI_FAILURE;
+      default:
+        return AI_FAILURE;
     }
     if (target > bytes_.size()) return AI_FAILURE;
     pos_ = target;

@@ -22,13 +22,16 @@ bool is_name_char(char c) {
          c == '-' || c == ':' || c == '.';
 }
 
-bool is_index_list(std::string_view tag) { return tag == "p" || tag == "vcount" || tag == "v" || tag == "h"; }
+bool is_index_list(std::string_view tag) {
+  return tag == "p" || tag == "vcount" || tag == "v" || tag == "h";
+}
 
 // The value of attribute `name` in a start tag, if present.
 std::optional<std::string_view> attribute(std::string_view tag_text, std::string_view name) {
   std::size_t pos = 0;
   while ((pos = tag_text.find(name, pos)) != std::string_view::npos) {
-    const bool starts_word = pos > 0 && (scan::is_space(tag_text[pos - 1]) || tag_text[pos - 1] == '\n');
+    const bool starts_word =
+        pos > 0 && (scan::is_space(tag_text[pos - 1]) || tag_text[pos - 1] == '\n');
     pos += name.size();
     if (!starts_word) continue;
     std::size_t i = pos;
@@ -51,15 +54,18 @@ struct Accessor {
 
 class DaeCheck {
  public:
-  DaeCheck(std::size_t file_size, const std::string& where) : file_size_(file_size), where_(where) {}
+  DaeCheck(std::size_t file_size, const std::string& where)
+      : file_size_(file_size), where_(where) {}
 
   // count, stride and offset size arrays and loops: each must be a number that fits the file.
-  std::uint64_t size_attribute(std::string_view tag_text, std::string_view name, std::uint64_t fallback) const {
+  std::uint64_t size_attribute(std::string_view tag_text, std::string_view name,
+                               std::uint64_t fallback) const {
     const auto value = attribute(tag_text, name);
     if (!value) return fallback;
     const auto n = scan::to_int(*value);
     if (!n || *n < 0 || static_cast<std::uint64_t>(*n) > file_size_)
-      throw Error(where_, "COLLADA attribute " + std::string(name) + "=\"" + std::string(value->substr(0, 40)) +
+      throw Error(where_, "COLLADA attribute " + std::string(name) + "=\"" +
+                              std::string(value->substr(0, 40)) +
                               "\" is not a count that fits in the file");
     return static_cast<std::uint64_t>(*n);
   }
@@ -69,7 +75,8 @@ class DaeCheck {
       throw Error(where_, "COLLADA <" + std::string(tag) + "> without a count attribute");
     const std::uint64_t count = size_attribute(tag_text, "count", 0);
     if (scan::tokens(content).size() < count)
-      throw Error(where_, "COLLADA <" + std::string(tag) + "> has fewer values than its count " + std::to_string(count));
+      throw Error(where_, "COLLADA <" + std::string(tag) + "> has fewer values than its count " +
+                              std::to_string(count));
     if (const auto id = attribute(tag_text, "id")) arrays_[std::string(*id)] = count;
   }
 
@@ -77,7 +84,8 @@ class DaeCheck {
     Accessor a;
     a.source = std::string(attribute(tag_text, "source").value_or(""));
     if (!a.source.empty() && a.source[0] == '#') a.source.erase(0, 1);
-    if (!attribute(tag_text, "count")) throw Error(where_, "COLLADA <accessor> without a count attribute");
+    if (!attribute(tag_text, "count"))
+      throw Error(where_, "COLLADA <accessor> without a count attribute");
     a.count = size_attribute(tag_text, "count", 0);
     a.stride = size_attribute(tag_text, "stride", 1);
     a.offset = size_attribute(tag_text, "offset", 0);
@@ -141,7 +149,8 @@ void check_dae(std::span<const unsigned char> bytes, const std::string& where) {
     const std::size_t content_end = empty_element ? pos : text.find('<', pos);
     const std::string_view content =
         text.substr(pos, (content_end == std::string_view::npos ? text.size() : content_end) - pos);
-    for (std::string_view name : {"count", "stride", "offset"}) check.size_attribute(tag_text, name, 0);
+    for (std::string_view name : {"count", "stride", "offset"})
+      check.size_attribute(tag_text, name, 0);
     if (tag.ends_with("_array")) {
       check.array(tag, tag_text, content);
     } else if (tag == "accessor") {

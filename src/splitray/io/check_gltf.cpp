@@ -3,10 +3,9 @@
 // triangles each primitive describes so that the loader can compare; malformed JSON and
 // broken references are left to assimp, which reports them. It also rejects JSON and node
 // hierarchies nested deeply enough to overflow the stack of assimp's recursive readers.
-#include <nlohmann/json.hpp>
-
 #include <cstring>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -27,14 +26,18 @@ void check_json_depth(std::span<const unsigned char> text, const std::string& wh
   bool in_string = false, escaped = false;
   for (unsigned char c : text) {
     if (in_string) {
-      if (escaped) escaped = false;
-      else if (c == '\\') escaped = true;
-      else if (c == '"') in_string = false;
+      if (escaped)
+        escaped = false;
+      else if (c == '\\')
+        escaped = true;
+      else if (c == '"')
+        in_string = false;
     } else if (c == '"') {
       in_string = true;
     } else if (c == '[' || c == '{') {
       if (++depth > kMaxJsonDepth)
-        throw Error(where, "the glTF JSON nests deeper than " + std::to_string(kMaxJsonDepth) + " levels");
+        throw Error(where,
+                    "the glTF JSON nests deeper than " + std::to_string(kMaxJsonDepth) + " levels");
     } else if (c == ']' || c == '}') {
       --depth;
     }
@@ -57,7 +60,8 @@ void check_node_depth(const json& root, const std::string& where) {
     const auto c = list[n]->find("children");
     if (c == list[n]->end() || !c->is_array()) return;
     for (const json& ref : *c) {
-      if (ref.is_number_unsigned() && ref.get<std::size_t>() < list.size()) out.push_back(ref.get<std::size_t>());
+      if (ref.is_number_unsigned() && ref.get<std::size_t>() < list.size())
+        out.push_back(ref.get<std::size_t>());
       if (ref.is_string())
         if (const auto f = id.find(ref.get<std::string>()); f != id.end()) out.push_back(f->second);
     }
@@ -79,7 +83,8 @@ void check_node_depth(const json& root, const std::string& where) {
         for (std::size_t k : kids) h = std::max(h, height[k] + 1);
         height[n] = h;
         if (h > kMaxNodeDepth)
-          throw Error(where, "the node hierarchy is deeper than " + std::to_string(kMaxNodeDepth) + " levels");
+          throw Error(where, "the node hierarchy is deeper than " + std::to_string(kMaxNodeDepth) +
+                                 " levels");
         continue;
       }
       if (height[n] >= 0 || on_path[n]) continue;  // done already, or a cycle
@@ -125,13 +130,16 @@ std::optional<std::size_t> count_triangles(const json& root, const std::string& 
       if (prim.contains("extensions")) return std::nullopt;  // e.g. Draco: counts unknown here
       const auto mode_it = prim.find("mode");
       const std::uint64_t mode =
-          mode_it == prim.end() ? 4 : (mode_it->is_number_unsigned() ? mode_it->get<std::uint64_t>() : 99);
+          mode_it == prim.end()
+              ? 4
+              : (mode_it->is_number_unsigned() ? mode_it->get<std::uint64_t>() : 99);
       if (mode > 6) return std::nullopt;
       std::optional<std::uint64_t> count;
       if (const auto indices = prim.find("indices"); indices != prim.end()) {
         count = accessor_count(root, *indices);
       } else if (const auto attributes = prim.find("attributes");
-                 attributes != prim.end() && attributes->is_object() && attributes->contains("POSITION")) {
+                 attributes != prim.end() && attributes->is_object() &&
+                 attributes->contains("POSITION")) {
         count = accessor_count(root, (*attributes)["POSITION"]);
       }
       if (!count) return std::nullopt;
@@ -150,13 +158,15 @@ std::optional<std::size_t> count_triangles(const json& root, const std::string& 
 
 }  // namespace
 
-std::optional<std::size_t> check_gltf(std::span<const unsigned char> bytes, const std::string& where) {
+std::optional<std::size_t> check_gltf(std::span<const unsigned char> bytes,
+                                      const std::string& where) {
   std::span<const unsigned char> text = bytes;
   if (bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0) {  // GLB container
     if (bytes.size() < 20) throw Error(where, "truncated GLB file (no chunk header)");
     std::uint32_t length = 0;
     std::memcpy(&length, bytes.data() + 12, 4);
-    if (length > bytes.size() - 20) throw Error(where, "truncated GLB file (the JSON chunk is cut short)");
+    if (length > bytes.size() - 20)
+      throw Error(where, "truncated GLB file (the JSON chunk is cut short)");
     text = bytes.subspan(20, length);
   }
   check_json_depth(text, where);

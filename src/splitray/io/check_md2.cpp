@@ -21,7 +21,8 @@ std::int32_t read_i32(std::span<const unsigned char> b, std::size_t offset) {
 
 std::size_t check_md2(std::span<const unsigned char> bytes, const std::string& where) {
   if (bytes.size() < 68) throw Error(where, "too small for an MD2 file (truncated?)");
-  if (std::memcmp(bytes.data(), "IDP2", 4) != 0) throw Error(where, "not an MD2 file (no IDP2 signature)");
+  if (std::memcmp(bytes.data(), "IDP2", 4) != 0)
+    throw Error(where, "not an MD2 file (no IDP2 signature)");
   const std::int32_t vertices = read_i32(bytes, 24), triangles = read_i32(bytes, 32);
   const std::int32_t tris_offset = read_i32(bytes, 52);
   if (vertices <= 0 || triangles < 0 || tris_offset < 0)

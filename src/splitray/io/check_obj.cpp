@@ -11,7 +11,7 @@ namespace splitray {
 namespace {
 
 struct Counter {
-  const char* what;        // "vertex", "texture coordinate", "normal"
+  const char* what;         // "vertex", "texture coordinate", "normal"
   std::size_t defined = 0;  // so far
   std::int64_t max_index = 0;
   std::size_t max_line = 0;
@@ -28,8 +28,8 @@ void check_index(std::string_view text, Counter& counter, const std::string& whe
   if (!value)
     throw Error(at(where, line), "'" + std::string(corner) + "' is not a valid face corner");
   if (*value == 0)
-    throw Error(at(where, line), "face refers to " + std::string(counter.what) +
-                                     " 0, but OBJ indices start at 1");
+    throw Error(at(where, line),
+                "face refers to " + std::string(counter.what) + " 0, but OBJ indices start at 1");
   if (*value < 0) {
     if (static_cast<std::size_t>(-*value) > counter.defined)
       throw Error(at(where, line), "face refers to " + std::string(counter.what) + " " +
@@ -75,7 +75,8 @@ std::size_t check_obj(std::span<const unsigned char> bytes, const std::string& w
                                          std::to_string(tok.size() - 1) + " (truncated line?)");
       for (std::size_t k = 1; k < 4; ++k)
         if (!scan::to_number(tok[k]))
-          throw Error(at(where, line), "vertex coordinate '" + std::string(tok[k]) + "' is not a number");
+          throw Error(at(where, line),
+                      "vertex coordinate '" + std::string(tok[k]) + "' is not a number");
       ++vertices.defined;
     } else if (tok[0] == "vt") {
       ++texcoords.defined;
@@ -93,7 +94,8 @@ std::size_t check_obj(std::span<const unsigned char> bytes, const std::string& w
         check_index(corner.substr(0, s1), vertices, where, line, corner);
         if (s1 == std::string_view::npos) continue;
         const std::size_t s2 = corner.find('/', s1 + 1);
-        const std::string_view t = corner.substr(s1 + 1, s2 == std::string_view::npos ? s2 : s2 - s1 - 1);
+        const std::string_view t =
+            corner.substr(s1 + 1, s2 == std::string_view::npos ? s2 : s2 - s1 - 1);
         if (!t.empty()) check_index(t, texcoords, where, line, corner);
         if (s2 == std::string_view::npos) continue;
         const std::string_view n = corner.substr(s2 + 1);
@@ -104,10 +106,10 @@ std::size_t check_obj(std::span<const unsigned char> bytes, const std::string& w
   }
   for (const Counter* c : {&vertices, &texcoords, &normals})
     if (c->max_index > 0 && static_cast<std::size_t>(c->max_index) > c->defined)
-      throw Error(at(where, c->max_line),
-                  "face refers to " + std::string(c->what) + " " + std::to_string(c->max_index) +
-                      " but the file defines only " + std::to_string(c->defined) +
-                      " (index out of range)");
+      throw Error(at(where, c->max_line), "face refers to " + std::string(c->what) + " " +
+                                              std::to_string(c->max_index) +
+                                              " but the file defines only " +
+                                              std::to_string(c->defined) + " (index out of range)");
   return triangles;
 }
 

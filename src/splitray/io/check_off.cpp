@@ -49,7 +49,8 @@ std::size_t check_off(std::span<const unsigned char> bytes, const std::string& w
     if (!prefix.empty()) throw Error(where, "unknown OFF header '" + std::string(keyword) + "'");
     pos = header_end;
     std::size_t peek = pos;
-    if (read_token(text, peek) == "BINARY") throw Error(where, "binary OFF files are not supported");
+    if (read_token(text, peek) == "BINARY")
+      throw Error(where, "binary OFF files are not supported");
   }
   std::uint64_t counts[3];
   const char* names[3] = {"vertex", "face", "edge"};
@@ -57,9 +58,10 @@ std::size_t check_off(std::span<const unsigned char> bytes, const std::string& w
     const std::string_view token = read_token(text, pos);
     const auto value = scan::to_int(token);
     if (!value || *value < 0 || *value > 0xffffffffLL)
-      throw Error(where, "the OFF header needs vertex, face and edge counts; the " +
-                             std::string(names[k]) + " count is " +
-                             (token.empty() ? std::string("missing") : "'" + std::string(token) + "'"));
+      throw Error(
+          where, "the OFF header needs vertex, face and edge counts; the " + std::string(names[k]) +
+                     " count is " +
+                     (token.empty() ? std::string("missing") : "'" + std::string(token) + "'"));
     counts[k] = static_cast<std::uint64_t>(*value);
   }
   const std::uint64_t vertices = counts[0], faces = counts[1];
@@ -69,7 +71,8 @@ std::size_t check_off(std::span<const unsigned char> bytes, const std::string& w
 
   // The data: one vertex or face per non-empty line.
   scan::Lines lines(text.substr(pos));
-  const std::size_t first_line = static_cast<std::size_t>(std::count(text.begin(), text.begin() + pos, '\n'));
+  const std::size_t first_line =
+      static_cast<std::size_t>(std::count(text.begin(), text.begin() + pos, '\n'));
   auto at = [&] { return where + ": line " + std::to_string(first_line + lines.number()); };
   std::string_view line;
   auto next_line = [&](const char* what, std::uint64_t done, std::uint64_t total) {
@@ -97,9 +100,11 @@ std::size_t check_off(std::span<const unsigned char> bytes, const std::string& w
     next_line("faces", f, faces);
     const auto tok = scan::tokens(line);
     const auto n = tok.empty() ? std::nullopt : scan::to_int(tok[0]);
-    if (!n) throw Error(at(), "face " + std::to_string(f) + " does not start with its vertex count");
-    if (*n < 3) throw Error(at(), "face " + std::to_string(f) + " has " + std::to_string(*n) +
-                                      " vertices; a face needs at least 3");
+    if (!n)
+      throw Error(at(), "face " + std::to_string(f) + " does not start with its vertex count");
+    if (*n < 3)
+      throw Error(at(), "face " + std::to_string(f) + " has " + std::to_string(*n) +
+                            " vertices; a face needs at least 3");
     if (*n > 9)
       throw Error(at(), "face " + std::to_string(f) + " has " + std::to_string(*n) +
                             " vertices; assimp's OFF reader takes at most 9");
@@ -110,8 +115,9 @@ std::size_t check_off(std::span<const unsigned char> bytes, const std::string& w
       const auto index = scan::to_int(tok[static_cast<std::size_t>(k)]);
       if (!index || *index < 0 || static_cast<std::uint64_t>(*index) >= vertices)
         throw Error(at(), "face " + std::to_string(f) + " refers to vertex '" +
-                              std::string(tok[static_cast<std::size_t>(k)]) + "' but there are only " +
-                              std::to_string(vertices) + " vertices (index out of range)");
+                              std::string(tok[static_cast<std::size_t>(k)]) +
+                              "' but there are only " + std::to_string(vertices) +
+                              " vertices (index out of range)");
     }
     triangles += static_cast<std::size_t>(*n) - 2;
   }

@@ -58,13 +58,28 @@ double read_binary(const unsigned char* p, const Type& t, Encoding enc) {
   if (swap)
     for (std::size_t i = 0; i < t.size / 2; ++i) std::swap(b[i], b[t.size - 1 - i]);
   if (t.is_float) {
-    if (t.size == 4) { float f; std::memcpy(&f, b, 4); return f; }
-    double d; std::memcpy(&d, b, 8); return d;
+    if (t.size == 4) {
+      float f;
+      std::memcpy(&f, b, 4);
+      return f;
+    }
+    double d;
+    std::memcpy(&d, b, 8);
+    return d;
   }
   switch (t.size) {
-    case 1: return t.is_signed ? double(std::int8_t(b[0])) : double(b[0]);
-    case 2: { std::uint16_t u; std::memcpy(&u, b, 2); return t.is_signed ? double(std::int16_t(u)) : double(u); }
-    default: { std::uint32_t u; std::memcpy(&u, b, 4); return t.is_signed ? double(std::int32_t(u)) : double(u); }
+    case 1:
+      return t.is_signed ? double(std::int8_t(b[0])) : double(b[0]);
+    case 2: {
+      std::uint16_t u;
+      std::memcpy(&u, b, 2);
+      return t.is_signed ? double(std::int16_t(u)) : double(u);
+    }
+    default: {
+      std::uint32_t u;
+      std::memcpy(&u, b, 4);
+      return t.is_signed ? double(std::int32_t(u)) : double(u);
+    }
   }
 }
 
@@ -92,10 +107,14 @@ Header parse_header(std::string_view text, const std::string& where) {
     if (tok.empty() || tok[0] == "comment" || tok[0] == "obj_info") continue;
     if (tok[0] == "format") {
       if (tok.size() < 2) throw Error(at, "'format' without a format");
-      if (tok[1] == "ascii") h.encoding = Encoding::ascii;
-      else if (tok[1] == "binary_little_endian") h.encoding = Encoding::little;
-      else if (tok[1] == "binary_big_endian") h.encoding = Encoding::big;
-      else throw Error(at, "unknown PLY format '" + std::string(tok[1]) + "'");
+      if (tok[1] == "ascii")
+        h.encoding = Encoding::ascii;
+      else if (tok[1] == "binary_little_endian")
+        h.encoding = Encoding::little;
+      else if (tok[1] == "binary_big_endian")
+        h.encoding = Encoding::big;
+      else
+        throw Error(at, "unknown PLY format '" + std::string(tok[1]) + "'");
       has_format = true;
     } else if (tok[0] == "element") {
       const auto count = tok.size() == 3 ? scan::to_int(tok[2]) : std::nullopt;
@@ -142,8 +161,9 @@ struct FaceCheck {
 
   void corners(std::uint64_t face, double n) const {
     if (n < 3)
-      throw Error(where, "PLY face " + std::to_string(face) + " has " + std::to_string(std::int64_t(n)) +
-                             " vertices; a face needs at least 3 (do the header's counts match the data?)");
+      throw Error(
+          where, "PLY face " + std::to_string(face) + " has " + std::to_string(std::int64_t(n)) +
+                     " vertices; a face needs at least 3 (do the header's counts match the data?)");
   }
   void index(std::uint64_t face, double i) const {
     if (!(i >= 0 && i < double(vertices)))
@@ -170,7 +190,8 @@ void walk_binary(const Header& h, std::span<const unsigned char> data, FaceCheck
     }
     if (fixed) {  // one size check for the whole element
       const std::uint64_t need = e.count * item_size;
-      if (need > data.size() - pos) throw Error(where, truncated(e, (data.size() - pos) / item_size));
+      if (need > data.size() - pos)
+        throw Error(where, truncated(e, (data.size() - pos) / item_size));
       pos += need;
       continue;
     }
@@ -184,7 +205,9 @@ void walk_binary(const Header& h, std::span<const unsigned char> data, FaceCheck
         if (p.count_type.size > data.size() - pos) throw Error(where, truncated(e, item));
         const double n = read_binary(data.data() + pos, p.count_type, h.encoding);
         pos += p.count_type.size;
-        if (n < 0) throw Error(where, "PLY '" + e.name + "' " + std::to_string(item) + " has a negative list length");
+        if (n < 0)
+          throw Error(where, "PLY '" + e.name + "' " + std::to_string(item) +
+                                 " has a negative list length");
         const std::uint64_t len = static_cast<std::uint64_t>(n);
         if (len * p.type.size > data.size() - pos) throw Error(where, truncated(e, item));
         if (is_face_index_list(e, p)) {
@@ -199,7 +222,8 @@ void walk_binary(const Header& h, std::span<const unsigned char> data, FaceCheck
   }
 }
 
-void walk_ascii(const Header& h, std::string_view data, FaceCheck& faces, const std::string& where) {
+void walk_ascii(const Header& h, std::string_view data, FaceCheck& faces,
+                const std::string& where) {
   std::size_t pos = 0;
   auto next = [&](const Element& e, std::uint64_t item) {
     while (pos < data.size() && (scan::is_space(data[pos]) || data[pos] == '\n')) ++pos;
@@ -209,8 +233,8 @@ void walk_ascii(const Header& h, std::string_view data, FaceCheck& faces, const 
     const std::string_view token = data.substr(start, pos - start);
     const auto value = scan::to_number(token);
     if (!value)
-      throw Error(where, "PLY '" + e.name + "' " + std::to_string(item) + ": '" + std::string(token) +
-                             "' is not a number");
+      throw Error(where, "PLY '" + e.name + "' " + std::to_string(item) + ": '" +
+                             std::string(token) + "' is not a number");
     return *value;
   };
   for (const Element& e : h.elements) {
@@ -222,7 +246,8 @@ void walk_ascii(const Header& h, std::string_view data, FaceCheck& faces, const 
         }
         const double n = next(e, item);
         if (!(n >= 0) || n != static_cast<double>(static_cast<std::uint64_t>(n)))
-          throw Error(where, "PLY '" + e.name + "' " + std::to_string(item) + " has an invalid list length");
+          throw Error(where, "PLY '" + e.name + "' " + std::to_string(item) +
+                                 " has an invalid list length");
         const bool is_face = is_face_index_list(e, p);
         if (is_face) faces.corners(item, n);
         for (std::uint64_t k = 0; k < static_cast<std::uint64_t>(n); ++k) {

@@ -17,7 +17,8 @@ std::size_t check_stl(std::span<const unsigned char> bytes, const std::string& w
 std::size_t check_off(std::span<const unsigned char> bytes, const std::string& where);
 std::size_t check_md2(std::span<const unsigned char> bytes, const std::string& where);
 // Nothing when the file is too broken to count (assimp then reports the problem).
-std::optional<std::size_t> check_gltf(std::span<const unsigned char> bytes, const std::string& where);
+std::optional<std::size_t> check_gltf(std::span<const unsigned char> bytes,
+                                      const std::string& where);
 // Rejects what makes assimp's COLLADA reader loop, overallocate or recurse; counts nothing.
 void check_dae(std::span<const unsigned char> bytes, const std::string& where);
 

@@ -1,12 +1,12 @@
 #include "splitray/io/frames.hpp"
 
-#include <assimp/Importer.hpp>
 #include <assimp/config.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 #include <glob.h>
 
 #include <algorithm>
+#include <assimp/Importer.hpp>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
@@ -100,7 +100,8 @@ int md2_frame_count(const std::string& path) {
     throw Error(path, "not an MD2 file (no IDP2 header)");
   std::int32_t frames;
   std::memcpy(&frames, bytes.data() + 40, 4);
-  if (frames < 1 || frames > 1 << 16) throw Error(path, "MD2 header gives " + std::to_string(frames) + " frames");
+  if (frames < 1 || frames > 1 << 16)
+    throw Error(path, "MD2 header gives " + std::to_string(frames) + " frames");
   return frames;
 }
 
@@ -143,7 +144,8 @@ std::vector<std::string> expand_frame_paths(const std::vector<std::string>& args
 
 FrameSequence::FrameSequence(const std::vector<std::string>& args) {
   if (args.empty()) throw Error("FRAMES", "no frames given");
-  const std::string ext = args.size() == 1 && fs::is_regular_file(args[0]) ? inner_extension(args[0]) : "";
+  const std::string ext =
+      args.size() == 1 && fs::is_regular_file(args[0]) ? inner_extension(args[0]) : "";
   if (ext == "md2") {
     kind_ = Kind::md2;
     source_ = args[0];
@@ -170,28 +172,34 @@ FrameSequence& FrameSequence::operator=(FrameSequence&&) noexcept = default;
 std::vector<Triangle> FrameSequence::load(std::size_t frame) const {
   if (frame >= size()) throw Error(source_, "frame " + std::to_string(frame) + " does not exist");
   switch (kind_) {
-    case Kind::md2: return load_md2_frame(source_, static_cast<int>(frame));
+    case Kind::md2:
+      return load_md2_frame(source_, static_cast<int>(frame));
     case Kind::aff: {
       const double n = static_cast<double>(size());
-      const double t = n > 1 ? aff_start_ + (aff_end_ - aff_start_) * static_cast<double>(frame) / (n - 1) : aff_start_;
+      const double t =
+          n > 1 ? aff_start_ + (aff_end_ - aff_start_) * static_cast<double>(frame) / (n - 1)
+                : aff_start_;
       return aff_->triangles_at(t);
     }
-    case Kind::files: break;
+    case Kind::files:
+      break;
   }
   return load_mesh(labels_[frame]).triangles();
 }
 
-std::vector<std::vector<Triangle>> load_frames(const FrameSequence& frames, std::size_t max_frames) {
+std::vector<std::vector<Triangle>> load_frames(const FrameSequence& frames,
+                                               std::size_t max_frames) {
   const std::size_t n = max_frames == 0 ? frames.size() : std::min(max_frames, frames.size());
   std::vector<std::vector<Triangle>> out;
   out.reserve(n);
   for (std::size_t i = 0; i < n; ++i) {
     out.push_back(frames.load(i));
     if (out.back().size() != out.front().size())
-      throw Error(frames.label(i), "frame " + std::to_string(i) + " has " + std::to_string(out.back().size()) +
-                                       " triangles but frame 0 (" + frames.label(0) + ") has " +
-                                       std::to_string(out.front().size()) +
-                                       "; every frame of an animation must keep the triangle count");
+      throw Error(frames.label(i),
+                  "frame " + std::to_string(i) + " has " + std::to_string(out.back().size()) +
+                      " triangles but frame 0 (" + frames.label(0) + ") has " +
+                      std::to_string(out.front().size()) +
+                      "; every frame of an animation must keep the triangle count");
   }
   return out;
 }

@@ -47,6 +47,7 @@ class FrameSequence {
 
 // The first `max_frames` frames (0 = all), refusing a frame whose triangle count differs
 // from the first frame's with an Error naming both frames.
-std::vector<std::vector<Triangle>> load_frames(const FrameSequence& frames, std::size_t max_frames = 0);
+std::vector<std::vector<Triangle>> load_frames(const FrameSequence& frames,
+                                               std::size_t max_frames = 0);
 
 }  // namespace splitray

@@ -1,10 +1,10 @@
 #include "splitray/io/mesh_io.hpp"
 
-#include <assimp/Importer.hpp>
 #include <assimp/config.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
+#include <assimp/Importer.hpp>
 #include <cmath>
 #include <limits>
 #include <new>
@@ -81,7 +81,8 @@ class Merger {
       stack.pop_back();
       if (++visits > kMaxNodeVisits) throw Error(path_, "the node graph is too large or cyclic");
       if (item.depth > kMaxNodeDepth)
-        throw Error(path_, "the node graph is deeper than " + std::to_string(kMaxNodeDepth) + " levels");
+        throw Error(path_,
+                    "the node graph is deeper than " + std::to_string(kMaxNodeDepth) + " levels");
       const aiMatrix4x4 world = item.world * item.node->mTransformation;
       for (unsigned k = 0; k < item.node->mNumMeshes; ++k)
         add(*scene_.mMeshes[item.node->mMeshes[k]], world);
@@ -119,8 +120,10 @@ class Merger {
         const float len = n.Length();
         // An unusable normal (zero, NaN, or a singular transform) makes the part's normals
         // computed instead: normals only shade, they are not geometry.
-        if (!(len > 0) || !std::isfinite(len)) part.has_normals = false;
-        else n /= len;
+        if (!(len > 0) || !std::isfinite(len))
+          part.has_normals = false;
+        else
+          n /= len;
         mesh_.normals[part.first_vertex + v] = {n.x, n.y, n.z};
       }
     }
@@ -132,7 +135,8 @@ class Merger {
         continue;
       }
       if (face.mNumIndices == 3) {
-        mesh_.faces.push_back({base + face.mIndices[0], base + face.mIndices[1], base + face.mIndices[2]});
+        mesh_.faces.push_back(
+            {base + face.mIndices[0], base + face.mIndices[1], base + face.mIndices[2]});
         ++part.face_count;
         continue;
       }
@@ -145,9 +149,11 @@ class Merger {
       local_.clear();
       work_ += triangulate_polygon(corners_, local_);
       if (work_ > kMaxTriangulationWork)
-        throw Error(path_, "the polygons are too large or contorted to triangulate in reasonable time");
+        throw Error(path_,
+                    "the polygons are too large or contorted to triangulate in reasonable time");
       for (const auto& t : local_)
-        mesh_.faces.push_back({base + face.mIndices[t[0]], base + face.mIndices[t[1]], base + face.mIndices[t[2]]});
+        mesh_.faces.push_back(
+            {base + face.mIndices[t[0]], base + face.mIndices[t[1]], base + face.mIndices[t[2]]});
       part.face_count += local_.size();
     }
     if (mesh_.faces.size() > kMaxTriangles)
@@ -247,9 +253,11 @@ Mesh load_mesh(const std::string& path) {
                  path, true);
 
   if (expected && *expected != count_triangles(*scene))
-    throw Error(path, "the file describes " + std::to_string(*expected) + " triangles but assimp made " +
-                          std::to_string(count_triangles(*scene)) +
-                          " of them (it dropped faces with an index out of range?); refusing a changed mesh");
+    throw Error(
+        path,
+        "the file describes " + std::to_string(*expected) + " triangles but assimp made " +
+            std::to_string(count_triangles(*scene)) +
+            " of them (it dropped faces with an index out of range?); refusing a changed mesh");
 
   Mesh mesh = Merger(*scene, path).run();
   mesh.name = path;

@@ -30,15 +30,22 @@ std::string index_path(const std::string& where, std::size_t i) {
 
 std::string type_name(const json& j) {
   switch (j.type()) {
-    case json::value_t::null: return "null";
-    case json::value_t::boolean: return "true/false";
-    case json::value_t::string: return "a string";
-    case json::value_t::array: return "an array";
-    case json::value_t::object: return "an object";
+    case json::value_t::null:
+      return "null";
+    case json::value_t::boolean:
+      return "true/false";
+    case json::value_t::string:
+      return "a string";
+    case json::value_t::array:
+      return "an array";
+    case json::value_t::object:
+      return "an object";
     case json::value_t::number_integer:
     case json::value_t::number_unsigned:
-    case json::value_t::number_float: return "a number";
-    default: return "an unsupported value";
+    case json::value_t::number_float:
+      return "a number";
+    default:
+      return "an unsupported value";
   }
 }
 
@@ -50,11 +57,13 @@ class Reader {
   [[noreturn]] void fail(const std::string& where, const std::string& problem) const {
     throw Error(where.empty() ? file_ : file_ + ": " + where, problem);
   }
-  [[noreturn]] void wrong_type(const json& j, const std::string& where, const char* expected) const {
+  [[noreturn]] void wrong_type(const json& j, const std::string& where,
+                               const char* expected) const {
     fail(where, std::string("expected ") + expected + ", got " + type_name(j));
   }
 
-  void object(const json& j, const std::string& where, std::initializer_list<std::string_view> allowed) const {
+  void object(const json& j, const std::string& where,
+              std::initializer_list<std::string_view> allowed) const {
     if (!j.is_object()) wrong_type(j, where, "an object");
     for (const auto& item : j.items()) {
       bool known = false;
@@ -84,7 +93,8 @@ class Reader {
     if (!std::isfinite(value)) fail(where, "the number is too large for a float");
     return value;
   }
-  float number_in(const json& j, const std::string& where, float lo, float hi, const char* range) const {
+  float number_in(const json& j, const std::string& where, float lo, float hi,
+                  const char* range) const {
     const float value = number(j, where);
     if (!(value >= lo && value <= hi)) fail(where, std::string("must be ") + range);
     return value;
@@ -134,7 +144,8 @@ Transform parse_step(const Reader& r, const json& j, const std::string& where) {
     r.object(value, at, {"axis", "degrees"});
     const Vec3 axis = r.vec3(r.required(value, at, "axis"), key_path(at, "axis"));
     if (axis == Vec3{}) r.fail(key_path(at, "axis"), "the rotation axis must not be zero");
-    return Transform::rotate(axis, r.number(r.required(value, at, "degrees"), key_path(at, "degrees")));
+    return Transform::rotate(axis,
+                             r.number(r.required(value, at, "degrees"), key_path(at, "degrees")));
   }
   if (key == "scale") {
     const Vec3 s = value.is_number() ? Vec3(r.number(value, at)) : r.vec3(value, at);
@@ -166,7 +177,8 @@ Transform parse_transform(const Reader& r, const json& j, const std::string& whe
     r.wrong_type(j, where, "a transform step or an array of steps");
   }
   const float det = determinant(t);
-  if (!std::isfinite(det) || det == 0) r.fail(where, "the transform is singular (it flattens the mesh)");
+  if (!std::isfinite(det) || det == 0)
+    r.fail(where, "the transform is singular (it flattens the mesh)");
   for (float v : t.m)
     if (!std::isfinite(v)) r.fail(where, "the transform overflows");
   return t;
@@ -174,11 +186,13 @@ Transform parse_transform(const Reader& r, const json& j, const std::string& whe
 
 Material parse_material(const Reader& r, const json& j, const std::string& where) {
   r.object(j, where,
-           {"name", "diffuse", "specular", "shininess", "reflectivity", "transparency", "ior", "fresnel"});
+           {"name", "diffuse", "specular", "shininess", "reflectivity", "transparency", "ior",
+            "fresnel"});
   Material m;
   m.name = r.string(r.required(j, where, "name"), key_path(where, "name"));
   if (const json* v = r.optional(j, "diffuse")) m.diffuse = r.color(*v, key_path(where, "diffuse"));
-  if (const json* v = r.optional(j, "specular")) m.specular = r.color(*v, key_path(where, "specular"));
+  if (const json* v = r.optional(j, "specular"))
+    m.specular = r.color(*v, key_path(where, "specular"));
   if (const json* v = r.optional(j, "shininess"))
     m.shininess = r.number_in(*v, key_path(where, "shininess"), 0, 1e6f, "between 0 and 1e6");
   if (const json* v = r.optional(j, "reflectivity"))
@@ -187,7 +201,8 @@ Material parse_material(const Reader& r, const json& j, const std::string& where
     m.transparency = r.number_in(*v, key_path(where, "transparency"), 0, 1, "between 0 and 1");
   if (const json* v = r.optional(j, "ior"))
     m.ior = r.number_in(*v, key_path(where, "ior"), 1e-3f, 100, "between 0.001 and 100");
-  if (const json* v = r.optional(j, "fresnel")) m.fresnel = r.boolean(*v, key_path(where, "fresnel"));
+  if (const json* v = r.optional(j, "fresnel"))
+    m.fresnel = r.boolean(*v, key_path(where, "fresnel"));
   return m;
 }
 
@@ -205,7 +220,8 @@ Light parse_light(const Reader& r, const json& j, const std::string& where) {
     r.object(j, where, {"type", "direction", "color"});
     light.kind = Light::Kind::directional;
     light.direction = r.vec3(r.required(j, where, "direction"), key_path(where, "direction"));
-    if (light.direction == Vec3{}) r.fail(key_path(where, "direction"), "the direction must not be zero");
+    if (light.direction == Vec3{})
+      r.fail(key_path(where, "direction"), "the direction must not be zero");
     light.direction = normalize(light.direction);
   } else {
     r.fail(key_path(where, "type"), "unknown light type '" + type + "' (point or directional)");
@@ -225,7 +241,8 @@ Camera parse_camera(const Reader& r, const json& j, const std::string& where) {
     if (cam.up == Vec3{}) r.fail(key_path(where, "up"), "the up vector must not be zero");
   }
   if (const json* v = r.optional(j, "fov"))
-    cam.vfov_degrees = r.number_in(*v, key_path(where, "fov"), 1e-3f, 179, "between 0.001 and 179 degrees");
+    cam.vfov_degrees =
+        r.number_in(*v, key_path(where, "fov"), 1e-3f, 179, "between 0.001 and 179 degrees");
   return cam;
 }
 
@@ -234,7 +251,8 @@ Camera parse_camera(const Reader& r, const json& j, const std::string& where) {
 json parse_json(const Bytes& bytes, const std::string& path) {
   std::vector<std::set<std::string>> open_objects;
   auto callback = [&](int depth, json::parse_event_t event, json& parsed) {
-    if (depth > kMaxNesting) throw Error(path, "the JSON nests deeper than " + std::to_string(kMaxNesting) + " levels");
+    if (depth > kMaxNesting)
+      throw Error(path, "the JSON nests deeper than " + std::to_string(kMaxNesting) + " levels");
     if (event == json::parse_event_t::object_start) open_objects.emplace_back();
     if (event == json::parse_event_t::object_end && !open_objects.empty()) open_objects.pop_back();
     if (event == json::parse_event_t::key && !open_objects.empty()) {
@@ -247,7 +265,8 @@ json parse_json(const Bytes& bytes, const std::string& path) {
     return json::parse(bytes.begin(), bytes.end(), callback, true, true);
   } catch (const json::exception& e) {
     std::string message = e.what();
-    if (const auto close = message.find("] "); message.starts_with("[json.exception") && close != std::string::npos)
+    if (const auto close = message.find("] ");
+        message.starts_with("[json.exception") && close != std::string::npos)
       message = message.substr(close + 2);
     throw Error(path, "invalid JSON: " + message);
   }
@@ -266,9 +285,12 @@ Scene load_json_scene(const std::string& path) {
     for (std::size_t i = 0; i < r.array(*v, "materials").size(); ++i) {
       const std::string where = index_path("materials", i);
       Material m = parse_material(r, (*v)[i], where);
-      if (!names.insert(m.name).second) r.fail(key_path(where, "name"), "duplicate material name '" + m.name + "'");
-      if (m.name == scene.materials[0].name) scene.materials[0] = std::move(m);  // redefines "default"
-      else scene.materials.push_back(std::move(m));
+      if (!names.insert(m.name).second)
+        r.fail(key_path(where, "name"), "duplicate material name '" + m.name + "'");
+      if (m.name == scene.materials[0].name)
+        scene.materials[0] = std::move(m);  // redefines "default"
+      else
+        scene.materials.push_back(std::move(m));
     }
   }
 
@@ -298,10 +320,12 @@ Scene load_json_scene(const std::string& path) {
       const std::string name = r.string(*v, key_path(where, "material"));
       bool found = false;
       for (std::size_t m = 0; m < scene.materials.size() && !found; ++m)
-        if (scene.materials[m].name == name) inst.material = static_cast<std::uint32_t>(m), found = true;
+        if (scene.materials[m].name == name)
+          inst.material = static_cast<std::uint32_t>(m), found = true;
       if (!found) r.fail(key_path(where, "material"), "unknown material '" + name + "'");
     }
-    if (const json* v = r.optional(j, "transform")) inst.transform = parse_transform(r, *v, key_path(where, "transform"));
+    if (const json* v = r.optional(j, "transform"))
+      inst.transform = parse_transform(r, *v, key_path(where, "transform"));
     scene.instances.push_back(inst);
   }
 

@@ -71,8 +71,8 @@ std::uint64_t triangulate_polygon(std::span<const Vec3> corners,
   };
 
   std::size_t remaining = n;
-  std::uint32_t b = 1;          // ears from corner 1 on: a convex polygon becomes the fan from 0
-  std::size_t since_clip = 0;   // candidates tried since the last clip
+  std::uint32_t b = 1;         // ears from corner 1 on: a convex polygon becomes the fan from 0
+  std::size_t since_clip = 0;  // candidates tried since the last clip
   while (remaining > 3) {
     if (is_ear(b) || since_clip >= remaining) {  // no proper ear left: clip here regardless
       const std::uint32_t a = prev[b], c = next[b];

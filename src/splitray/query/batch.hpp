@@ -70,6 +70,7 @@ RadiusResult gather_radius_chunks(std::size_t n, const std::vector<std::uint32_t
       std::size_t j = b;
       find_chunk(b, e, [&](std::vector<WithinRadius::Entry>& found) {
         sort_found(found);
+        if (out.empty()) out.reserve(found.size() * (e - b) + 64);  // guess from the first
         result.offsets[query_at(j++) + 1] = found.size();
         out.insert(out.end(), found.begin(), found.end());
       });
@@ -84,8 +85,8 @@ RadiusResult gather_radius_chunks(std::size_t n, const std::vector<std::uint32_t
       for (std::size_t j = c * kQueryChunk; j < std::min(n, (c + 1) * kQueryChunk); ++j) {
         const std::size_t q = query_at(j);
         for (std::uint64_t slot = result.offsets[q]; slot < result.offsets[q + 1]; ++slot, ++e) {
-          result.indices[slot] = e->index;
-          result.distances[slot] = std::sqrt(e->d2);
+          result.indices[slot] = e->index();
+          result.distances[slot] = std::sqrt(e->d2());
         }
       }
       std::vector<WithinRadius::Entry>().swap(gathered[c]);

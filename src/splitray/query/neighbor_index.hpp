@@ -15,7 +15,7 @@ namespace splitray {
 
 struct NeighborIndexConfig {
   std::string builder = "vvh";  // vvh | sah | median | brute | nanoflann | flann
-  int leaf_size = 12;           // all trees, ours and the peers'
+  int leaf_size = 10;           // all trees, ours and the peers'
   float radius = 0;             // VVH/SAH cell expansion; <= 0 automatic (see PointTreeConfig)
   // Batched peer queries in the given order (false, as their users call them) or in our
   // Morton order (true: shows how much of a difference is query order alone).

@@ -48,4 +48,10 @@ void check_points(std::span<const Vec3> points, const char* where) {
       throw Error(where, "point " + std::to_string(i) + " has a NaN or infinite coordinate");
 }
 
+void check_queries(std::span<const Vec3> queries, const char* where) {
+  for (std::size_t i = 0; i < queries.size(); ++i)
+    if (!is_finite(queries[i]))
+      throw Error(where, "query " + std::to_string(i) + " has a NaN or infinite coordinate");
+}
+
 }  // namespace splitray

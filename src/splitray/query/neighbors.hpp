@@ -67,5 +67,7 @@ void check_k(int k, std::size_t points, const char* where);
 void check_radius(float r, const char* where);
 // Throws Error naming `where` if a point is NaN or infinite, or there are too many points.
 void check_points(std::span<const Vec3> points, const char* where);
+// Throws Error naming `where` if a query is NaN or infinite.
+void check_queries(std::span<const Vec3> queries, const char* where);
 
 }  // namespace splitray

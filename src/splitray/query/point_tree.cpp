@@ -1,13 +1,7 @@
 #include "splitray/query/point_tree.hpp"
 
 #include <algorithm>
-#include <bit>
-#include <atomic>
 #include <cmath>
-
-#if defined(__AVX512F__)
-#include <immintrin.h>
-#endif
 
 #include "splitray/core/errors.hpp"
 #include "splitray/core/parallel.hpp"
@@ -23,66 +17,13 @@ namespace {
 // so it never exceeds the computed distance² of a point in the cell: pruning stays exact.
 inline float bound_of(float o0, float o1, float o2) { return (o0 * o0 + o1 * o1) + o2 * o2; }
 
-#ifdef SPLITRAY_QUERY_STATS
-}  // namespace
-std::atomic<long> g_nodes{0}, g_leaves{0}, g_points{0};
-namespace {
-#define COUNT(x, v) x.fetch_add(v, std::memory_order_relaxed)
-#else
-#define COUNT(x, v)
-#endif
-
-// Offers every point of a leaf. With AVX-512, 16 distances at a time from gathered
-// coordinates, computed with the same operations in the same order as distance_squared (so
-// bit-identical), and only those within the current bound are offered, in index order.
-// Gathers index floats with signed 32-bit offsets: 3 × index must stay below 2^31.
-constexpr std::size_t kGatherPoints = (std::size_t{1} << 31) / 3;
-
-template <typename Result>
-inline void scan_leaf(const std::uint32_t* ids, std::uint32_t count, const Vec3* points,
-                      bool gather, const Vec3& q, Result& result) {
-#if defined(__AVX512F__)
-  if (gather && count > 4) {
-    const float* base = &points->x;
-    const __m512 qx = _mm512_set1_ps(q.x), qy = _mm512_set1_ps(q.y), qz = _mm512_set1_ps(q.z);
-    for (std::uint32_t i = 0; i < count; i += 16) {
-      const __mmask16 m = count - i >= 16 ? __mmask16(0xFFFF) : __mmask16((1u << (count - i)) - 1);
-      const __m512i id = _mm512_maskz_loadu_epi32(m, ids + i);
-      const __m512i at = _mm512_add_epi32(_mm512_add_epi32(id, id), id);  // 3 id: floats
-      const __m512 zero = _mm512_setzero_ps();
-      const __m512 dx = _mm512_sub_ps(_mm512_mask_i32gather_ps(zero, m, at, base, 4), qx);
-      const __m512 dy = _mm512_sub_ps(_mm512_mask_i32gather_ps(zero, m, at, base + 1, 4), qy);
-      const __m512 dz = _mm512_sub_ps(_mm512_mask_i32gather_ps(zero, m, at, base + 2, 4), qz);
-      const __m512 d2 = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(dx, dx), _mm512_mul_ps(dy, dy)),
-                                      _mm512_mul_ps(dz, dz));
-      unsigned hit = _mm512_mask_cmp_ps_mask(m, d2, _mm512_set1_ps(result.worst()), _CMP_LE_OQ);
-      if (!hit) continue;
-      alignas(64) float dist[16];
-      _mm512_store_ps(dist, d2);
-      for (; hit; hit &= hit - 1) {
-        const int lane = std::countr_zero(hit);
-        result.offer(dist[lane], ids[i + lane]);
-      }
-    }
-    return;
-  }
-#else
-  (void)gather;
-#endif
-  for (std::uint32_t i = 0; i < count; ++i) {
-    const std::uint32_t id = ids[i];
-    result.offer(distance_squared(points[id], q), id);
-  }
-}
-
 // Depth-first, near child first, with a fixed stack (the tree is at most kMaxDepth deep, and
 // each level pushes at most one far child). Offsets stay in three scalars updated by selects:
 // an array indexed by the axis made the compiler store one float and reload two, which
 // stalls store forwarding at every node.
 template <typename Result>
-void search(std::span<const PointNode> nodes, const std::uint32_t* perm, const LeafBox* boxes,
-            std::span<const Vec3> points, const Aabb& bounds, const Vec3& q, Result& result) {
-  const bool gather = points.size() < kGatherPoints;
+void search(std::span<const PointNode> nodes, const std::uint32_t* perm, const Vec3* points,
+            const Aabb& bounds, const Vec3& q, Result& result) {
   struct Entry {
     std::uint32_t node;
     float bound, o0, o1, o2;
@@ -99,7 +40,6 @@ void search(std::span<const PointNode> nodes, const std::uint32_t* perm, const L
     bool pruned = false;
     while (!nodes[n].is_leaf()) {
       const PointNode& node = nodes[n];
-      COUNT(g_nodes, 1);
       const int a = node.axis();
       const float qa = a == 0 ? q.x : (a == 1 ? q.y : q.z);
       const float below_gap = qa - node.below_max;  // > 0: q lies above the below child
@@ -131,14 +71,11 @@ void search(std::span<const PointNode> nodes, const std::uint32_t* perm, const L
     }
     if (!pruned) {
       const PointNode& leaf = nodes[n];
-      const LeafBox& box = boxes[leaf.box()];
-      const auto box_gap = [&](int a, float v, float o) {
-        return std::max(std::max(box.lo[a] - v, v - box.hi[a]), o);  // o >= 0
-      };
-      if (bound_of(box_gap(0, q.x, o0), box_gap(1, q.y, o1), box_gap(2, q.z, o2)) <= result.worst()) {
-        COUNT(g_leaves, 1);
-        COUNT(g_points, leaf.count());
-        scan_leaf(perm + leaf.index, leaf.count(), points.data(), gather, q, result);
+      const std::uint32_t* ids = perm + leaf.index;
+      const std::uint32_t count = leaf.count();
+      for (std::uint32_t i = 0; i < count; ++i) {
+        const std::uint32_t id = ids[i];
+        result.offer(distance_squared(points[id], q), id);
       }
     }
     for (;;) {
@@ -176,7 +113,7 @@ std::vector<std::uint32_t> coherent_order(std::span<const Vec3> queries) {
       std::uint32_t c = 0;
       for (int a = 0; a < 3; ++a) {
         const float t = (queries[i][a] - box.lo[a]) * scale;
-        const auto cell = static_cast<std::uint32_t>(std::clamp(t, 0.0f, 1023.0f));
+        const auto cell = static_cast<std::uint32_t>(t > 0 ? std::min(t, 1023.0f) : 0.0f);  // NaN: 0
         c |= spread_bits(cell) << a;
       }
       code[i] = c;
@@ -220,22 +157,6 @@ PointTree::PointTree(std::span<const Vec3> points, const PointTreeConfig& config
   PointBuildOutput built = build_point_tree(points, bounds_, config, radius);
   nodes_ = std::move(built.nodes);
   permutation_ = std::move(built.permutation);
-  // Number the leaves depth first and box their points.
-  std::vector<std::uint32_t> leaves;
-  for (std::uint32_t n = 0; n < nodes_.size(); ++n)
-    if (nodes_[n].is_leaf()) {
-      nodes_[n].below_max = std::bit_cast<float>(static_cast<std::uint32_t>(leaves.size()));
-      leaves.push_back(n);
-    }
-  leaf_boxes_.resize(leaves.size());
-  parallel_chunks(leaves.size(), 1024, [&](std::size_t b, std::size_t e) {
-    for (std::size_t l = b; l < e; ++l) {
-      const PointNode& leaf = nodes_[leaves[l]];
-      Aabb box;
-      for (std::uint32_t i = 0; i < leaf.count(); ++i) box.extend(points[permutation_[leaf.index + i]]);
-      leaf_boxes_[l] = {{box.lo.x, box.lo.y, box.lo.z}, {box.hi.x, box.hi.y, box.hi.z}};
-    }
-  });
 
   config_ = config;
   radius_ = radius;
@@ -249,8 +170,7 @@ PointTreeStats PointTree::stats() const {
   stats.nodes = nodes_.size();
   stats.radius = radius_;
   stats.build_ms = build_ms_;
-  stats.bytes = nodes_.size() * sizeof(PointNode) + permutation_.size() * sizeof(std::uint32_t) +
-                leaf_boxes_.size() * sizeof(LeafBox);
+  stats.bytes = nodes_.size() * sizeof(PointNode) + permutation_.size() * sizeof(std::uint32_t);
   std::vector<std::pair<std::uint32_t, int>> stack{{0u, 0}};
   double depth_sum = 0;
   while (!stack.empty()) {
@@ -274,6 +194,7 @@ PointTreeStats PointTree::stats() const {
 int PointTree::knn(const Vec3& query, int k, std::span<std::uint32_t> indices,
                    std::span<float> distances) const {
   check_k(k, size(), "k-nearest search");
+  check_queries({&query, 1}, "k-nearest search");
   if (indices.size() < static_cast<std::size_t>(k) || distances.size() < static_cast<std::size_t>(k))
     throw Error("k-nearest search", "output spans are shorter than k");
   knn_unchecked(query, k, indices.data(), distances.data());
@@ -283,12 +204,13 @@ int PointTree::knn(const Vec3& query, int k, std::span<std::uint32_t> indices,
 void PointTree::knn_unchecked(const Vec3& query, int k, std::uint32_t* indices,
                               float* distances) const {
   detail::nearest_k(k, indices, distances, [&](auto& set) {
-    search(nodes_, permutation_.data(), leaf_boxes_.data(), points_, bounds_, query, set);
+    search(nodes_, permutation_.data(), points_.data(), bounds_, query, set);
   });
 }
 
 KnnResult PointTree::knn(std::span<const Vec3> queries, int k) const {
   check_k(k, size(), "k-nearest search");
+  check_queries(queries, "k-nearest search");
   KnnResult result = detail::make_knn_result(queries.size(), k);
   const std::size_t kk = static_cast<std::size_t>(k);
   detail::for_each_query(queries, coherent_order(queries), [&](std::size_t q, const Vec3& point) {
@@ -300,23 +222,25 @@ KnnResult PointTree::knn(std::span<const Vec3> queries, int k) const {
 void PointTree::radius(const Vec3& query, float r, std::vector<std::uint32_t>& indices,
                        std::vector<float>& distances) const {
   check_radius(r, "radius search");
+  check_queries({&query, 1}, "radius search");
   std::vector<detail::WithinRadius::Entry> found;
   detail::WithinRadius within{r * r, &found};
-  search(nodes_, permutation_.data(), leaf_boxes_.data(), points_, bounds_, query, within);
+  search(nodes_, permutation_.data(), points_.data(), bounds_, query, within);
   detail::sort_found(found);
   for (const auto& e : found) {
-    indices.push_back(e.index);
-    distances.push_back(std::sqrt(e.d2));
+    indices.push_back(e.index());
+    distances.push_back(std::sqrt(e.d2()));
   }
 }
 
 RadiusResult PointTree::radius(std::span<const Vec3> queries, float r) const {
   check_radius(r, "radius search");
+  check_queries(queries, "radius search");
   const float r2 = r * r;
   return detail::gather_radius(queries, coherent_order(queries),
                                [&](std::size_t, const Vec3& point, auto& found) {
                                  detail::WithinRadius within{r2, &found};
-                                 search(nodes_, permutation_.data(), leaf_boxes_.data(), points_, bounds_, point, within);
+                                 search(nodes_, permutation_.data(), points_.data(), bounds_, point, within);
                                });
 }
 

@@ -9,7 +9,6 @@
 //   sah    — the same sweep with cell surface areas (paper 003 Eq. 5);
 //   median — the median of the longest axis (balanced).
 // The tree depends only on the points and the config, never on the thread count.
-#include <bit>
 #include <cstdint>
 #include <span>
 #include <string>
@@ -22,7 +21,7 @@ namespace splitray {
 
 struct PointTreeConfig {
   std::string builder = "vvh";  // vvh | sah | median
-  int leaf_size = 12;           // a node with this many points or fewer becomes a leaf
+  int leaf_size = 10;           // a node with this many points or fewer becomes a leaf
   // VVH/SAH: cells are expanded by this radius on every side (paper 003: the search radius;
   // 1e-4 for general neighbourhoods). <= 0: automatic, 1e-4 × the bounding-box diagonal.
   float radius = 0;
@@ -32,8 +31,7 @@ struct PointTreeConfig {
 
 // Interior: the points below have coordinate[axis] <= below_max < above_min <= the points
 // above; the below child follows this node, the above child is `index` nodes further on.
-// Leaf: points permutation[index, index + count); its tight box is leaf_boxes()[box()]
-// (the number is kept in the bits of below_max, which a leaf has no use for).
+// Leaf: points permutation[index, index + count).
 struct PointNode {
   float below_max = 0;
   float above_min = 0;
@@ -43,16 +41,9 @@ struct PointNode {
   bool is_leaf() const { return (bits & 3u) == 3u; }
   int axis() const { return static_cast<int>(bits & 3u); }
   std::uint32_t count() const { return bits >> 2; }
-  std::uint32_t box() const { return std::bit_cast<std::uint32_t>(below_max); }
 };
 static_assert(sizeof(PointNode) == 16);
 
-// The bounding box of a leaf's points: a leaf whose box is farther than the current bound is
-// skipped without touching its points (which live in the caller's array, in no useful order).
-struct LeafBox {
-  float lo[3];
-  float hi[3];
-};
 
 struct PointTreeStats {
   std::string builder;
@@ -95,7 +86,6 @@ class PointTree {
   std::span<const Vec3> points() const { return points_; }
   std::span<const PointNode> nodes() const { return nodes_; }
   std::span<const std::uint32_t> permutation() const { return permutation_; }
-  std::span<const LeafBox> leaf_boxes() const { return leaf_boxes_; }
   const Aabb& bounds() const { return bounds_; }
   double build_ms() const { return build_ms_; }
   float expansion_radius() const { return radius_; }  // the VVH/SAH expansion used
@@ -110,7 +100,6 @@ class PointTree {
   std::span<const Vec3> points_;
   std::vector<PointNode> nodes_;
   std::vector<std::uint32_t> permutation_;
-  std::vector<LeafBox> leaf_boxes_;
   Aabb bounds_;
   PointTreeConfig config_;
   float radius_ = 0;

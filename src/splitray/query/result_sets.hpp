@@ -3,6 +3,7 @@
 // `worst()` (a cell whose distance² exceeds it cannot contribute) and `offer(d2, index)`.
 // Candidates are ordered by (distance², index), so ties go to the smaller index.
 #include <algorithm>
+#include <bit>
 #include <cstdint>
 #include <limits>
 #include <vector>
@@ -82,19 +83,24 @@ struct NearestHeap {
 
 inline constexpr int kSortedMaxK = 32;  // above this, the heap wins
 
-// Every point with distance² <= r2, unsorted until finish().
+// Every point with distance² <= r2, in the order found.
 struct WithinRadius {
+  // (distance² bits, index) in one integer: distances² are >= +0, whose bits order like
+  // unsigned integers, so sorting the keys sorts by (distance², index).
   struct Entry {
-    float d2;
-    std::uint32_t index;
-    bool operator<(const Entry& o) const { return d2 < o.d2 || (d2 == o.d2 && index < o.index); }
+    std::uint64_t key;
+    Entry(float d2, std::uint32_t index)
+        : key((static_cast<std::uint64_t>(std::bit_cast<std::uint32_t>(d2)) << 32) | index) {}
+    float d2() const { return std::bit_cast<float>(static_cast<std::uint32_t>(key >> 32)); }
+    std::uint32_t index() const { return static_cast<std::uint32_t>(key); }
+    bool operator<(const Entry& o) const { return key < o.key; }
   };
   float r2;
   std::vector<Entry>* found;
 
   float worst() const { return r2; }
   void offer(float candidate, std::uint32_t i) {
-    if (candidate <= r2) found->push_back({candidate, i});
+    if (candidate <= r2) found->emplace_back(candidate, i);
   }
 };
 

@@ -155,7 +155,10 @@ float CpuPass::exact_visibility(const Camera& camera, int width, int height, int
   float t, u, v;
   if (!plane_hit(ray, flat_.triangles[prim], t, u, v)) return 1;
   const Surface s = surface(ray, prim, t, u, v);
-  return visibility(s.p + s.ng * eps_, scene_.lights[light], rays);
+  // Facing away from the light: shading skips the light, the mask and the refinement say 0.
+  const Light& l = scene_.lights[light];
+  if (dot(s.ng, sample_light(l, s.p).to_light) <= 0) return 0;
+  return visibility(s.p + s.ng * eps_, l, rays);
 }
 
 void CpuPass::run(const CpuPassInput& in, bool secondary_rays, bool refine,

@@ -33,7 +33,8 @@ class CpuPass {
   void run(const CpuPassInput& in, bool secondary, bool refine, CpuPassOutput& out) const;
 
   // Exact visibility of light `i` from the primary hit of pixel (x, y) on triangle `prim`:
-  // what whitted's shadow ray gives (transparent casters transmit). For tests and the bench.
+  // what whitted's shadow ray gives (transparent casters transmit), 0 where the surface faces
+  // away from the light (whitted's shading skips the light there). For tests and the bench.
   float exact_visibility(const Camera& camera, int width, int height, int x, int y,
                          std::uint32_t prim, int light, std::uint64_t& rays) const;
 

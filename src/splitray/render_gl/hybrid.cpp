@@ -73,7 +73,7 @@ struct HybridRenderer::Impl {
   std::size_t vertex_count = 0;
 
   GLuint vao = 0, vbo = 0, materials = 0, empty_vao = 0;
-  Program shadow, id, blur, composite;
+  Program shadow, shadow_cube, id, blur, composite;
   std::vector<ShadowMap> maps;
   GLuint id_fbo = 0, id_tex = 0, mask_tex = 0, depth_tex = 0;
   GLuint blur_fbo = 0, boundary_tex = 0;
@@ -103,6 +103,7 @@ struct HybridRenderer::Impl {
                                        (version ? version : "none"));
     upload_scene();
     shadow = Program("scene.vert.glsl", "shadow.frag.glsl");
+    shadow_cube = Program("scene.vert.glsl", "shadow.frag.glsl", {"shadow_cube.glsl"});
     id = Program("scene.vert.glsl", "id.frag.glsl", {"lights.glsl"});
     blur = Program("fullscreen.vert.glsl", "blur.frag.glsl");
     composite = Program("scene.vert.glsl", "composite.frag.glsl", {"lights.glsl"});
@@ -285,7 +286,6 @@ struct HybridRenderer::Impl {
   void shadow_pass(const Camera& camera) {
     const float aspect = static_cast<float>(options.width) / static_cast<float>(options.height);
     const float texel = length(bounds.extent()) / static_cast<float>(options.shadow_map_size);
-    shadow.use();
     glEnable(GL_DEPTH_TEST);
     glDepthFunc(GL_LESS);
     glDisable(GL_CULL_FACE);
@@ -293,7 +293,8 @@ struct HybridRenderer::Impl {
       ShadowMap& m = maps[i];
       const Light& light = scene.lights[i];
       glViewport(0, 0, m.size, m.size);
-      glProgramUniform1i(shadow.id(), shadow.uniform("u_cube"), m.cube ? 1 : 0);
+      const Program& program = m.cube ? shadow_cube : shadow;
+      program.use();
       std::array<glm::mat4, 6> matrices;
       if (m.cube) {
         float range = 0;
@@ -304,9 +305,9 @@ struct HybridRenderer::Impl {
         }
         m.range = range * 1.01f + 1e-3f;
         matrices = gl::cube_face_matrices(light.position, m.range);
-        glProgramUniform3f(shadow.id(), shadow.uniform("u_light_position"), light.position.x,
+        glProgramUniform3f(program.id(), program.uniform("u_light_position"), light.position.x,
                            light.position.y, light.position.z);
-        glProgramUniform1f(shadow.id(), shadow.uniform("u_range"), m.range);
+        glProgramUniform1f(program.id(), program.uniform("u_range"), m.range);
         glDisable(GL_POLYGON_OFFSET_FILL);
       } else {
         m.matrix = gl::directional_light_matrix(camera, aspect, light.direction, bounds, options.lispsm);
@@ -319,7 +320,7 @@ struct HybridRenderer::Impl {
         const float clear_depth = 1, clear_flag[] = {0, 0, 0, 0};
         glClearNamedFramebufferfv(m.fbo[f], GL_DEPTH, 0, &clear_depth);
         glClearNamedFramebufferfv(m.fbo[f], GL_COLOR, 0, clear_flag);
-        glProgramUniformMatrix4fv(shadow.id(), shadow.uniform("u_matrix"), 1, GL_FALSE,
+        glProgramUniformMatrix4fv(program.id(), program.uniform("u_matrix"), 1, GL_FALSE,
                                   glm::value_ptr(matrices[f]));
         draw_scene();
       }

@@ -50,7 +50,7 @@ Aabb with_interval(Aabb box, int axis, float lo, float hi) {
 
 class BihBuilder {
  public:
-  BihBuilder(std::vector<PrimRef>& refs, const BihBuildOptions& options) : refs_(refs), options_(options) {}
+  BihBuilder(std::vector<BvhRef>& refs, const BihBuildOptions& options) : refs_(refs), options_(options) {}
 
   std::unique_ptr<BihPiece> build_piece(const Task& task) {
     auto piece = std::make_unique<BihPiece>();
@@ -91,7 +91,7 @@ class BihBuilder {
     Split s;
     s.axis = axis;
     s.n_left = partition(
-        t.begin, t.end, [&](const PrimRef& r) { return (r.box.lo[axis] + r.box.hi[axis]) * 0.5f < plane; }, s.left,
+        t.begin, t.end, [&](const BvhRef& r) { return (r.box.lo[axis] + r.box.hi[axis]) * 0.5f < plane; }, s.left,
         s.right);
     return s;
   }
@@ -147,10 +147,10 @@ class BihBuilder {
   Split split_median(const Task& t) {
     const int axis = t.bounds.centers.longest_axis();
     const std::size_t mid = t.begin + (t.end - t.begin) / 2;
-    const auto center = [axis](const PrimRef& r) { return r.box.lo[axis] + r.box.hi[axis]; };
+    const auto center = [axis](const BvhRef& r) { return r.box.lo[axis] + r.box.hi[axis]; };
     std::nth_element(refs_.begin() + static_cast<std::ptrdiff_t>(t.begin), refs_.begin() + static_cast<std::ptrdiff_t>(mid),
                      refs_.begin() + static_cast<std::ptrdiff_t>(t.end),
-                     [&](const PrimRef& a, const PrimRef& b) { return center(a) < center(b) || (center(a) == center(b) && a.prim < b.prim); });
+                     [&](const BvhRef& a, const BvhRef& b) { return center(a) < center(b) || (center(a) == center(b) && a.prim < b.prim); });
     Split s;
     s.axis = axis;
     s.n_left = mid - t.begin;
@@ -172,7 +172,7 @@ class BihBuilder {
       for (int i = 0; i < map.count; ++i)
         axis[i] = {-std::numeric_limits<float>::infinity(), std::numeric_limits<float>::infinity(), 0};
     for (std::size_t i = t.begin; i < t.end; ++i) {
-      const PrimRef& r = refs_[i];
+      const BvhRef& r = refs_[i];
       for (int a = 0; a < 3; ++a) {
         Bin& b = bins[a][map.bin(r, a)];
         b.max_hi = std::max(b.max_hi, r.box.hi[a]);
@@ -212,7 +212,7 @@ class BihBuilder {
     Split s;
     s.axis = best_axis;
     s.n_left = partition(
-        t.begin, t.end, [&](const PrimRef& r) { return map.bin(r, best_axis) <= best_bin; }, s.left, s.right);
+        t.begin, t.end, [&](const BvhRef& r) { return map.bin(r, best_axis) <= best_bin; }, s.left, s.right);
     return s;
   }
 
@@ -305,7 +305,7 @@ class BihBuilder {
     build(piece, pair + 1, right, evals);
   }
 
-  std::vector<PrimRef>& refs_;
+  std::vector<BvhRef>& refs_;
   const BihBuildOptions& options_;
   std::atomic<std::uint64_t> evals_{0};
 };
@@ -334,7 +334,7 @@ BihBuildOptions BihBuildOptions::from(const BuildConfig& config, BihHeuristic he
 Bih Bih::build(std::span<const Triangle> triangles, const BihBuildOptions& options) {
   Bih bih;
   if (triangles.empty()) return bih;
-  std::vector<PrimRef> refs = make_prim_refs(triangles);
+  std::vector<BvhRef> refs = make_prim_refs(triangles);
   const RefBounds bounds = ref_bounds(refs);
   BihBuilder builder(refs, options);
   const auto root = builder.build_piece({0, refs.size(), bounds, bounds.box, bounds.box, 0});

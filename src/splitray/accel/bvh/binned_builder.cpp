@@ -17,7 +17,7 @@ constexpr std::size_t kTaskRefs = 4096;  // subtrees at least this big become ta
 
 class BinnedBuilder {
  public:
-  BinnedBuilder(std::vector<PrimRef>& refs, const BvhBuildOptions& options) : refs_(refs), options_(options) {}
+  BinnedBuilder(std::vector<BvhRef>& refs, const BvhBuildOptions& options) : refs_(refs), options_(options) {}
 
   std::unique_ptr<BvhPiece> build_piece(std::size_t begin, std::size_t end, const RefBounds& bounds, int depth) {
     auto piece = std::make_unique<BvhPiece>();
@@ -43,7 +43,7 @@ class BinnedBuilder {
     if (n <= static_cast<std::size_t>(options_.min_leaf) || depth >= options_.max_depth)
       return make_leaf(piece, slot, begin, end, bounds.box);
 
-    const std::span<PrimRef> refs(refs_.data() + begin, n);
+    const std::span<BvhRef> refs(refs_.data() + begin, n);
     const ObjectSplit split = find_object_split(refs, bounds, options_, evals);
     const float leaf_cost = options_.intersection_cost * static_cast<float>(n);
     const bool small = n <= static_cast<std::size_t>(options_.max_leaf);
@@ -75,22 +75,22 @@ class BinnedBuilder {
     build(piece, pair + 1, mid, end, right, depth + 1, evals);
   }
 
-  std::vector<PrimRef>& refs_;
+  std::vector<BvhRef>& refs_;
   const BvhBuildOptions& options_;
   std::atomic<std::uint64_t> evals_{0};
 };
 
 }  // namespace
 
-std::vector<PrimRef> make_prim_refs(std::span<const Triangle> triangles) {
-  std::vector<PrimRef> refs(triangles.size());
+std::vector<BvhRef> make_prim_refs(std::span<const Triangle> triangles) {
+  std::vector<BvhRef> refs(triangles.size());
   parallel_chunks(triangles.size(), 4096, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) refs[i] = {triangles[i].bounds(), static_cast<std::uint32_t>(i)};
   });
   return refs;
 }
 
-BvhBuildResult build_bvh_binned(std::span<const Triangle>, std::vector<PrimRef> refs,
+BvhBuildResult build_bvh_binned(std::span<const Triangle>, std::vector<BvhRef> refs,
                                 const BvhBuildOptions& options) {
   BinnedBuilder builder(refs, options);
   BvhBuildResult result;

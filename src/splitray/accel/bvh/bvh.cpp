@@ -22,7 +22,7 @@ BvhBuildOptions BvhBuildOptions::from(const BuildConfig& config) {
 std::vector<std::string> Bvh::builder_names() { return {"binned", "sbvh", "embree"}; }
 
 Bvh Bvh::build(std::span<const Triangle> triangles, const std::string& builder, const BvhBuildOptions& options) {
-  std::vector<PrimRef> refs = make_prim_refs(triangles);
+  std::vector<BvhRef> refs = make_prim_refs(triangles);
   BvhBuildResult result;
   if (builder == "binned")
     result = build_bvh_binned(triangles, std::move(refs), options);

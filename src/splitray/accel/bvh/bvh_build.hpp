@@ -46,13 +46,13 @@ struct BvhNodeTraits {
 using BvhPiece = Piece<BvhNode>;
 
 // A triangle, or the part of it inside some region, and the bounds of that part.
-struct PrimRef {
+struct BvhRef {
   Aabb box;
   std::uint32_t prim = 0;
   Vec3 center() const { return (box.lo + box.hi) * 0.5f; }
 };
 
-std::vector<PrimRef> make_prim_refs(std::span<const Triangle> triangles);  // whole triangles
+std::vector<BvhRef> make_prim_refs(std::span<const Triangle> triangles);  // whole triangles
 
 struct BvhBuildOptions {
   float traversal_cost = 15;     // SAH K_T
@@ -72,16 +72,16 @@ struct BvhBuildResult {
 };
 
 // Binned SAH over reference centres (Wald 2007).
-BvhBuildResult build_bvh_binned(std::span<const Triangle> triangles, std::vector<PrimRef> refs,
+BvhBuildResult build_bvh_binned(std::span<const Triangle> triangles, std::vector<BvhRef> refs,
                                 const BvhBuildOptions& options);
 // Spatial-split BVH (Stich, Friedrich & Dietrich 2009): binned object splits, and spatial
 // splits with reference clipping and unsplitting where the children would overlap by more
 // than sbvh_alpha of the root's area.
-BvhBuildResult build_bvh_sbvh(std::span<const Triangle> triangles, std::vector<PrimRef> refs,
+BvhBuildResult build_bvh_sbvh(std::span<const Triangle> triangles, std::vector<BvhRef> refs,
                               const BvhBuildOptions& options);
 // Embree's custom builder (rtcBuildBVH, high quality with spatial splits through our
 // triangle clipping when `spatial`), converted to our nodes.
-BvhBuildResult build_bvh_embree(std::span<const Triangle> triangles, std::vector<PrimRef> refs,
+BvhBuildResult build_bvh_embree(std::span<const Triangle> triangles, std::vector<BvhRef> refs,
                                 const BvhBuildOptions& options, bool spatial);
 
 }  // namespace splitray

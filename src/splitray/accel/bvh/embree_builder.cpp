@@ -110,13 +110,13 @@ void lay_out(const TmpNode* node, const Aabb& box, BvhPiece& piece, std::size_t 
 
 }  // namespace
 
-BvhBuildResult build_bvh_embree(std::span<const Triangle> triangles, std::vector<PrimRef> refs,
+BvhBuildResult build_bvh_embree(std::span<const Triangle> triangles, std::vector<BvhRef> refs,
                                 const BvhBuildOptions& options, bool spatial) {
   BvhBuildResult result;
   result.root = std::make_unique<BvhPiece>();
   result.root->nodes.resize(1);
   Aabb root_box;
-  for (const PrimRef& r : refs) root_box.extend(r.box);
+  for (const BvhRef& r : refs) root_box.extend(r.box);
   if (refs.empty()) return result;
 
   // Spatial splits need room for the extra references.

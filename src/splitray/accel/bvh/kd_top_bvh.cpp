@@ -61,7 +61,7 @@ bool overlaps(const Aabb& a, const Aabb& b) { return !intersection(a, b).empty()
 // Adds a reference of `prim` to every leaf cell below `cell` that the triangle reaches.
 void assign(const Triangle& tri, const Aabb& tri_box, std::uint32_t prim, std::span<const TopCell> cells,
             std::span<const std::int32_t> leaf_of, int cell,
-            std::vector<std::pair<std::uint32_t, PrimRef>>& out) {
+            std::vector<std::pair<std::uint32_t, BvhRef>>& out) {
   const TopCell& c = cells[static_cast<std::size_t>(cell)];
   if (c.leaf()) {
     const Aabb clipped = clip_triangle_bounds(tri, c.box);
@@ -131,7 +131,7 @@ Bvh build_top_bvh(std::span<const Triangle> triangles, std::span<const TopCell> 
   // Step 2: references per leaf cell, in triangle order.
   Timer timer;
   const std::size_t chunks = (triangles.size() + kAssignChunk - 1) / kAssignChunk;
-  std::vector<std::vector<std::pair<std::uint32_t, PrimRef>>> found(chunks);
+  std::vector<std::vector<std::pair<std::uint32_t, BvhRef>>> found(chunks);
   tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t k) {
     const std::size_t end = std::min(triangles.size(), (k + 1) * kAssignChunk);
     for (std::size_t i = k * kAssignChunk; i < end; ++i) {
@@ -143,14 +143,14 @@ Bvh build_top_bvh(std::span<const Triangle> triangles, std::span<const TopCell> 
         throw Error("kd-top bvh", "triangle " + std::to_string(i) + " lies outside every leaf cell");
     }
   });
-  std::vector<std::vector<PrimRef>> refs(leaf_cells.size());
+  std::vector<std::vector<BvhRef>> refs(leaf_cells.size());
   std::vector<std::size_t> counts(leaf_cells.size(), 0);
   for (const auto& chunk : found)
     for (const auto& [leaf, ref] : chunk) ++counts[leaf];
   for (std::size_t l = 0; l < refs.size(); ++l) refs[l].reserve(counts[l]);
   for (auto& chunk : found) {
     for (const auto& [leaf, ref] : chunk) refs[leaf].push_back(ref);
-    std::vector<std::pair<std::uint32_t, PrimRef>>().swap(chunk);
+    std::vector<std::pair<std::uint32_t, BvhRef>>().swap(chunk);
   }
   const double assign_ms = timer.ms();
 

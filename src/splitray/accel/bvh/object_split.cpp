@@ -45,7 +45,7 @@ struct Bins {
     for (auto& a : axis)
       for (int i = 0; i < n; ++i) a[i].clear();
   }
-  void add(const CenterBins& map, const PrimRef& r) {
+  void add(const CenterBins& map, const BvhRef& r) {
     for (int a = 0; a < 3; ++a) axis[a][map.bin(r, a)].add(r.box);
   }
   void merge(const Bins& o) {
@@ -56,7 +56,7 @@ struct Bins {
 
 }  // namespace
 
-RefBounds ref_bounds(std::span<const PrimRef> refs) {
+RefBounds ref_bounds(std::span<const BvhRef> refs) {
   const auto chunk = [&](std::size_t begin, std::size_t end) {
     RefBounds b;
     for (std::size_t i = begin; i < end; ++i) b.extend(refs[i]);
@@ -81,13 +81,13 @@ CenterBins::CenterBins(const Aabb& centers, int bins) : lo(centers.lo), count(st
     scale[a] = e[a] > 0 ? static_cast<float>(count) * (1 - 0x1p-20f) / e[a] : 0.0f;
 }
 
-int CenterBins::bin(const PrimRef& r, int axis) const {
+int CenterBins::bin(const BvhRef& r, int axis) const {
   const float c = (r.box.lo[axis] + r.box.hi[axis]) * 0.5f;
   const int b = static_cast<int>((c - lo[axis]) * scale[axis]);
   return std::clamp(b, 0, count - 1);
 }
 
-ObjectSplit find_object_split(std::span<const PrimRef> refs, const RefBounds& bounds,
+ObjectSplit find_object_split(std::span<const BvhRef> refs, const RefBounds& bounds,
                               const BvhBuildOptions& options, std::uint64_t& evals) {
   ObjectSplit best;
   const CenterBins map(bounds.centers, bin_count(options, refs.size()));
@@ -150,9 +150,9 @@ ObjectSplit find_object_split(std::span<const PrimRef> refs, const RefBounds& bo
   return best;
 }
 
-std::size_t partition_refs(std::span<PrimRef> refs, const CenterBins& bins, const ObjectSplit& split,
+std::size_t partition_refs(std::span<BvhRef> refs, const CenterBins& bins, const ObjectSplit& split,
                            RefBounds& left, RefBounds& right) {
-  const auto goes_left = [&](const PrimRef& r) { return bins.bin(r, split.axis) <= split.bin; };
+  const auto goes_left = [&](const BvhRef& r) { return bins.bin(r, split.axis) <= split.bin; };
   std::size_t i = 0, j = refs.size();
   for (;;) {
     while (i < j && goes_left(refs[i])) left.extend(refs[i++]);

@@ -12,7 +12,7 @@ namespace splitray {
 // Bounds of a set of references and of their centres.
 struct RefBounds {
   Aabb box, centers;
-  void extend(const PrimRef& r) {
+  void extend(const BvhRef& r) {
     box.extend(r.box);
     centers.extend(r.center());
   }
@@ -22,14 +22,14 @@ struct RefBounds {
   }
 };
 
-RefBounds ref_bounds(std::span<const PrimRef> refs);  // parallel for large spans
+RefBounds ref_bounds(std::span<const BvhRef> refs);  // parallel for large spans
 
 // Which bin of `axis` a centre falls in: the mapping both binning and partitioning use.
 struct CenterBins {
   Vec3 lo, scale;
   int count;
   CenterBins(const Aabb& centers, int bins);
-  int bin(const PrimRef& r, int axis) const;
+  int bin(const BvhRef& r, int axis) const;
 };
 
 struct ObjectSplit {
@@ -45,13 +45,13 @@ inline int bin_count(const BvhBuildOptions& options, std::size_t n) {
 }
 
 // The cheapest binned split of `refs` (bounds `bounds`); `evals` counts cost evaluations.
-ObjectSplit find_object_split(std::span<const PrimRef> refs, const RefBounds& bounds,
+ObjectSplit find_object_split(std::span<const BvhRef> refs, const RefBounds& bounds,
                               const BvhBuildOptions& options, std::uint64_t& evals);
 
 // Moves the references whose centre bin on split.axis is <= split.bin to the front and
 // (bins = CenterBins(bounds.centers, bin_count(options, refs.size())), as in the search)
 // returns their number, with the bounds of both sides.
-std::size_t partition_refs(std::span<PrimRef> refs, const CenterBins& bins, const ObjectSplit& split,
+std::size_t partition_refs(std::span<BvhRef> refs, const CenterBins& bins, const ObjectSplit& split,
                            RefBounds& left, RefBounds& right);
 
 // SAH cost of a split with the given child areas and counts, relative to the parent's area.

@@ -44,7 +44,7 @@ class SbvhBuilder {
   SbvhBuilder(std::span<const Triangle> triangles, const BvhBuildOptions& options, const Aabb& root)
       : tris_(triangles), options_(options), min_overlap_(options.sbvh_alpha * root.half_area()) {}
 
-  std::unique_ptr<BvhPiece> build_piece(std::vector<PrimRef> refs, const RefBounds& bounds, int depth,
+  std::unique_ptr<BvhPiece> build_piece(std::vector<BvhRef> refs, const RefBounds& bounds, int depth,
                                         std::size_t budget) {
     auto piece = std::make_unique<BvhPiece>();
     piece->nodes.resize(1);
@@ -57,20 +57,20 @@ class SbvhBuilder {
   std::uint64_t evals() const { return evals_; }
 
  private:
-  void make_leaf(BvhPiece& piece, std::size_t slot, const std::vector<PrimRef>& refs, const Aabb& box) {
+  void make_leaf(BvhPiece& piece, std::size_t slot, const std::vector<BvhRef>& refs, const Aabb& box) {
     // A triangle split earlier may come back in two parts: reference it once.
     const auto first = static_cast<std::uint32_t>(piece.prims.size());
-    for (const PrimRef& r : refs) piece.prims.push_back(r.prim);
+    for (const BvhRef& r : refs) piece.prims.push_back(r.prim);
     std::sort(piece.prims.begin() + first, piece.prims.end());
     piece.prims.erase(std::unique(piece.prims.begin() + first, piece.prims.end()), piece.prims.end());
     piece.nodes[slot] = BvhNode::make_leaf(box, first, static_cast<std::uint32_t>(piece.prims.size() - first));
   }
 
-  Aabb clip(const PrimRef& r, const Aabb& region) const {
+  Aabb clip(const BvhRef& r, const Aabb& region) const {
     return clip_triangle_bounds(tris_[r.prim], intersection(r.box, region));
   }
 
-  SpatialSplit find_spatial_split(const std::vector<PrimRef>& refs, const Aabb& box, std::uint64_t& evals) const {
+  SpatialSplit find_spatial_split(const std::vector<BvhRef>& refs, const Aabb& box, std::uint64_t& evals) const {
     SpatialSplit best;
     const int count = std::clamp(bin_count(options_, refs.size()), 2, kMaxSpatialBins);
     const float parent_area = std::max(box.half_area(), std::numeric_limits<float>::min());
@@ -81,7 +81,7 @@ class SbvhBuilder {
       if (!(extent > 0)) continue;
       const float width = extent / static_cast<float>(count), inv = static_cast<float>(count) / extent;
       for (int i = 0; i < count; ++i) bins[i] = {};
-      for (const PrimRef& r : refs) {
+      for (const BvhRef& r : refs) {
         const int b0 = std::clamp(static_cast<int>((r.box.lo[a] - lo) * inv), 0, count - 1);
         const int b1 = std::clamp(static_cast<int>((r.box.hi[a] - lo) * inv), b0, count - 1);
         ++bins[b0].enter;
@@ -121,15 +121,15 @@ class SbvhBuilder {
   }
 
   // Distributes refs by the plane; false when one side would stay empty.
-  bool spatial_partition(const std::vector<PrimRef>& refs, const SpatialSplit& split, std::vector<PrimRef>& left,
-                         std::vector<PrimRef>& right) const {
+  bool spatial_partition(const std::vector<BvhRef>& refs, const SpatialSplit& split, std::vector<BvhRef>& left,
+                         std::vector<BvhRef>& right) const {
     const int a = split.axis;
     const float p = split.plane;
     Aabb left_box = split.left, right_box = split.right;
     auto n_left = static_cast<float>(split.n_left), n_right = static_cast<float>(split.n_right);
     left.reserve(split.n_left);
     right.reserve(split.n_right);
-    for (const PrimRef& r : refs) {
+    for (const BvhRef& r : refs) {
       if (r.box.hi[a] <= p) {
         left.push_back(r);
       } else if (r.box.lo[a] >= p) {
@@ -161,7 +161,7 @@ class SbvhBuilder {
 
   // `budget` bounds the references this subtree may hold (spatial splits add some), so that
   // the total stays within kGrowth times the input and the recursion always shrinks.
-  void build(BvhPiece& piece, std::size_t slot, std::vector<PrimRef>& refs, const RefBounds& bounds, int depth,
+  void build(BvhPiece& piece, std::size_t slot, std::vector<BvhRef>& refs, const RefBounds& bounds, int depth,
              std::size_t budget, std::uint64_t& evals) {
     const std::size_t n = refs.size();
     if (n <= static_cast<std::size_t>(options_.min_leaf) || depth >= options_.max_depth)
@@ -177,7 +177,7 @@ class SbvhBuilder {
     if (n <= static_cast<std::size_t>(options_.max_leaf) && !(best_cost < leaf_cost))
       return make_leaf(piece, slot, refs, bounds.box);
 
-    std::vector<PrimRef> left, right;
+    std::vector<BvhRef> left, right;
     RefBounds left_bounds, right_bounds;
     int axis = 0;
     bool done = false;
@@ -204,7 +204,7 @@ class SbvhBuilder {
       left.assign(refs.begin(), refs.begin() + static_cast<std::ptrdiff_t>(n_left));
       right.assign(refs.begin() + static_cast<std::ptrdiff_t>(n_left), refs.end());
     }
-    std::vector<PrimRef>().swap(refs);  // release the parent's references before recursing
+    std::vector<BvhRef>().swap(refs);  // release the parent's references before recursing
     // The spare budget goes to the children in proportion to their references.
     const std::size_t used = left.size() + right.size(), spare = budget > used ? budget - used : 0;
     const std::size_t left_budget = left.size() + static_cast<std::size_t>(
@@ -233,7 +233,7 @@ class SbvhBuilder {
 
 }  // namespace
 
-BvhBuildResult build_bvh_sbvh(std::span<const Triangle> triangles, std::vector<PrimRef> refs,
+BvhBuildResult build_bvh_sbvh(std::span<const Triangle> triangles, std::vector<BvhRef> refs,
                               const BvhBuildOptions& options) {
   const RefBounds bounds = ref_bounds(refs);
   SbvhBuilder builder(triangles, options, bounds.box);

@@ -3,18 +3,17 @@
 // robust_ray.hpp), so both give the same answers.
 #include "splitray/accel/bvh/wide_bvh.hpp"
 
-#if defined(__AVX__)
+#if defined(__SSE__)
 #include <immintrin.h>
 #endif
 
 #include <bit>
-#include <atomic>
 #include <limits>
 
 #include "splitray/accel/bvh/robust_ray.hpp"
 
 namespace splitray {
-std::atomic<long> g_nodes{0}, g_leaves{0}, g_tris{0};
+
 namespace {
 
 constexpr int kStackSize = 8 * 64;  // at most 7 pushes per level, at most 64 levels
@@ -82,32 +81,61 @@ std::uint32_t collapse_node(std::span<const BvhNode> nodes, std::uint32_t binary
   return index;
 }
 
-// Entry parameters of the ray into all eight slots (within [tmin, tmax]); bit i set on a hit.
-inline unsigned slab8(const WideNode& n, const RobustRay& r, const int near[3], const int far[3], float tmin,
-                      float tmax, float* t_entry) {
+// The per-ray constants of the eight-wide slab test: plane rows by direction sign, and the
+// origins and inverse direction broadcast once.
+struct Slab8 {
+  int near[3], far[3];
 #if defined(__AVX__)
-  __m256 t0 = _mm256_set1_ps(tmin), t1 = _mm256_set1_ps(tmax);
-  for (int a = 0; a < 3; ++a) {
-    const __m256 inv = _mm256_set1_ps(r.inv[a]);
-    const __m256 lo = _mm256_sub_ps(_mm256_load_ps(n.planes[near[a]]), _mm256_set1_ps(r.org_near[a]));
-    const __m256 hi = _mm256_sub_ps(_mm256_load_ps(n.planes[far[a]]), _mm256_set1_ps(r.org_far[a]));
-    t0 = _mm256_max_ps(_mm256_mul_ps(lo, inv), t0);  // NaN in the first operand keeps t0
-    t1 = _mm256_min_ps(_mm256_mul_ps(hi, inv), t1);
-  }
-  _mm256_storeu_ps(t_entry, t0);
-  return static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(t0, t1, _CMP_LE_OQ)));
-#else
-  unsigned mask = 0;
-  for (int i = 0; i < kWideWidth; ++i) {
-    float t0 = tmin, t1 = tmax;
+  __m256 org_near[3], org_far[3], inv[3];
+#endif
+  const RobustRay& r;
+
+  explicit Slab8(const RobustRay& ray) : r(ray) {
     for (int a = 0; a < 3; ++a) {
-      t0 = max_keep(t0, (n.planes[near[a]][i] - r.org_near[a]) * r.inv[a]);
-      t1 = min_keep(t1, (n.planes[far[a]][i] - r.org_far[a]) * r.inv[a]);
+      near[a] = r.negative[a] ? 3 + a : a;
+      far[a] = r.negative[a] ? a : 3 + a;
+#if defined(__AVX__)
+      org_near[a] = _mm256_set1_ps(r.org_near[a]);
+      org_far[a] = _mm256_set1_ps(r.org_far[a]);
+      inv[a] = _mm256_set1_ps(r.inv[a]);
+#endif
     }
-    t_entry[i] = t0;
-    if (t0 <= t1) mask |= 1u << i;
   }
-  return mask;
+
+  // Entry parameters into all eight slots (within [tmin, tmax]); bit i set on a hit.
+  unsigned test(const WideNode& n, float tmin, float tmax, float* t_entry) const {
+#if defined(__AVX__)
+    __m256 t0 = _mm256_set1_ps(tmin), t1 = _mm256_set1_ps(tmax);
+    for (int a = 0; a < 3; ++a) {
+      const __m256 lo = _mm256_sub_ps(_mm256_load_ps(n.planes[near[a]]), org_near[a]);
+      const __m256 hi = _mm256_sub_ps(_mm256_load_ps(n.planes[far[a]]), org_far[a]);
+      t0 = _mm256_max_ps(_mm256_mul_ps(lo, inv[a]), t0);  // NaN in the first operand keeps t0
+      t1 = _mm256_min_ps(_mm256_mul_ps(hi, inv[a]), t1);
+    }
+    _mm256_store_ps(t_entry, t0);
+    return static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(t0, t1, _CMP_LE_OQ)));
+#else
+    unsigned mask = 0;
+    for (int i = 0; i < kWideWidth; ++i) {
+      float t0 = tmin, t1 = tmax;
+      for (int a = 0; a < 3; ++a) {
+        t0 = max_keep(t0, (n.planes[near[a]][i] - r.org_near[a]) * r.inv[a]);
+        t1 = min_keep(t1, (n.planes[far[a]][i] - r.org_far[a]) * r.inv[a]);
+      }
+      t_entry[i] = t0;
+      if (t0 <= t1) mask |= 1u << i;
+    }
+    return mask;
+#endif
+  }
+};
+
+inline void prefetch(const WideNode* node) {
+#if defined(__SSE__)
+  const char* p = reinterpret_cast<const char*>(node);
+  for (int line = 0; line < 4; ++line) _mm_prefetch(p + 64 * line, _MM_HINT_T0);
+#else
+  (void)node;
 #endif
 }
 
@@ -115,16 +143,9 @@ template <bool AnyHit>
 bool traverse(std::span<const WideNode> nodes, const Ray& ray, const RobustRay& r, std::span<const Triangle> tris,
               std::span<const std::uint32_t> ids, Hit& hit) {
   const WatertightRay w(ray);
-  int near[3], far[3];
-  for (int a = 0; a < 3; ++a) {
-    near[a] = r.negative[a] ? 3 + a : a;
-    far[a] = r.negative[a] ? a : 3 + a;
-  }
+  const Slab8 slab(r);
   // Tests a leaf; true when an any-hit query is answered.
-  long c_nodes=0,c_leaves=0,c_tris=0;
-  struct Flush{long&a;long&b;long&c; ~Flush(){g_nodes+=a;g_leaves+=b;g_tris+=c;}} flush{c_nodes,c_leaves,c_tris};
   const auto leaf = [&](std::uint32_t first, std::uint32_t count) {
-    ++c_leaves; c_tris += count;
     for (std::uint32_t i = first; i < first + count; ++i) {
       if constexpr (AnyHit) {
         float t, u, v;
@@ -137,41 +158,37 @@ bool traverse(std::span<const WideNode> nodes, const Ray& ray, const RobustRay& 
   };
   Entry stack[kStackSize];
   int sp = 0;
-  std::uint32_t node = 0;
+  Entry current{0, 0, 0};
   alignas(32) float t_entry[kWideWidth];
   for (;;) {
-    ++c_nodes;
-    unsigned mask = slab8(nodes[node], r, near, far, ray.tmin, hit.t, t_entry);
-    if (mask != 0) {
-      const WideNode& n = nodes[node];
-      // Push the hit children farthest first, so that the nearest is handled next.
-      Entry found[kWideWidth];
-      int k = 0;
-      while (mask != 0) {
-        const int i = std::countr_zero(mask);
+    if (current.count == 0) {  // a wide node: enter the nearest hit child, push the others
+      const WideNode& n = nodes[current.child];
+      unsigned mask = slab.test(n, ray.tmin, hit.t, t_entry);
+      if (mask != 0) {
+        int i = std::countr_zero(mask);
         mask &= mask - 1;
-        Entry e{n.child[i], n.count[i], t_entry[i]};
-        int j = k++;
-        for (; j > 0 && found[j - 1].t < e.t; --j) found[j] = found[j - 1];
-        found[j] = e;
-      }
-      for (int j = 0; j < k - 1; ++j) stack[sp++] = found[j];
-      const Entry& nearest = found[k - 1];
-      if (nearest.count == 0) {
-        node = nearest.child;
+        Entry nearest{n.child[i], n.count[i], t_entry[i]};
+        const int base = sp;
+        while (mask != 0) {  // keep the stack ordered: farther entries lower
+          i = std::countr_zero(mask);
+          mask &= mask - 1;
+          Entry e{n.child[i], n.count[i], t_entry[i]};
+          if (e.t < nearest.t) std::swap(e, nearest);
+          int j = sp++;
+          for (; j > base && stack[j - 1].t < e.t; --j) stack[j] = stack[j - 1];
+          stack[j] = e;
+        }
+        current = nearest;
+        if (current.count == 0) prefetch(&nodes[current.child]);
         continue;
       }
-      if (leaf(nearest.child, nearest.count)) return true;
+    } else if (leaf(current.child, current.count)) {
+      return true;
     }
     for (;;) {  // the next entry not behind the closest hit
       if (sp == 0) return hit.found();
-      const Entry e = stack[--sp];
-      if (!(e.t <= hit.t)) continue;
-      if (e.count == 0) {
-        node = e.child;
-        break;
-      }
-      if (leaf(e.child, e.count)) return true;
+      current = stack[--sp];
+      if (current.t <= hit.t) break;
     }
   }
 }

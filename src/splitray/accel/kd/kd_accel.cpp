@@ -19,12 +19,6 @@ constexpr NamedBuilder kBuilders[] = {
     {"binned", build_kd_binned},
 };
 
-int tree_depth(const KdTree& tree, std::uint32_t index) {
-  const KdNode& node = tree.nodes[index];
-  if (node.is_leaf()) return 0;
-  return 1 + std::max(tree_depth(tree, index + 1), tree_depth(tree, node.above()));
-}
-
 }  // namespace
 
 std::vector<std::string> kd_builder_names() {
@@ -66,7 +60,8 @@ KdAccel::KdAccel(KdTree tree, std::span<const Triangle> triangles, const BuildCo
                  std::uint64_t cost_evals, const Timer& build_timer)
     : tree_(std::move(tree)) {
   if (tree_.nodes.empty()) throw Error("--accel kd", "the tree has no nodes");
-  if (tree_depth(tree_, 0) > kKdDepthLimit)
+  stats_ = kd_tree_stats(tree_, config);
+  if (stats_.max_depth > kKdDepthLimit)  // the traversal stack holds one entry per level
     throw Error("--accel kd", "the tree is deeper than " + std::to_string(kKdDepthLimit) + " levels");
   leaf_triangles_.reserve(tree_.prim_ids.size());
   for (const std::uint32_t id : tree_.prim_ids) {
@@ -74,7 +69,6 @@ KdAccel::KdAccel(KdTree tree, std::span<const Triangle> triangles, const BuildCo
     leaf_triangles_.push_back(triangles[id]);
   }
   coord_scale_ = std::max(max_component(abs(tree_.bounds.lo)), max_component(abs(tree_.bounds.hi)));
-  stats_ = kd_tree_stats(tree_, config);
   stats_.accel = "kd";
   stats_.builder = config.builder;
   stats_.prims = triangles.size();

@@ -42,12 +42,32 @@ struct Event {
 
 using AxisEvents = std::array<std::vector<Event>, 3>;
 
+// Leaves elements uninitialised on resize(): arrays that are written right after.
+template <typename T>
+struct UninitAllocator : std::allocator<T> {
+  template <typename U>
+  struct rebind {
+    using other = UninitAllocator<U>;
+  };
+  UninitAllocator() = default;
+  template <typename U>
+  UninitAllocator(const UninitAllocator<U>&) noexcept {}
+  template <typename U>
+  void construct(U* p) noexcept {
+    ::new (static_cast<void*>(p)) U;
+  }
+  template <typename U, typename... Args>
+  void construct(U* p, Args&&... args) {
+    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+  }
+};
+
 // One node's work: its cell, its triangles and their events, the three axes' sorted lists
 // one after another in one array (fewer allocations per node).
 struct Node {
   Aabb box;
   std::vector<std::uint32_t> tris;  // triangle ids; events refer to positions in this list
-  std::vector<Event> events;
+  std::vector<Event, UninitAllocator<Event>> events;
   std::array<std::size_t, 4> axis_begin{};  // events of axis a: [axis_begin[a], axis_begin[a+1])
 
   std::span<const Event> axis(int a) const {
@@ -238,18 +258,16 @@ class SahBuilder {
     fill_child(node, side, kAbove, above_index, scratch.fresh_above, above);
   }
 
+  // Sized for the most the child can get (its share of the parent's events plus the new
+  // ones) and trimmed after, so one pass suffices; the slack lives only until the child is
+  // split in turn.
   static void fill_child(const Node& node, const std::vector<std::uint8_t>& side, Side keep,
                          const std::vector<std::uint32_t>& new_index, const AxisEvents& fresh, Node& child) {
-    std::array<std::size_t, 3> count{};
+    child.events.resize(node.events.size() + fresh[0].size() + fresh[1].size() + fresh[2].size());
+    Event* const first = child.events.data();
+    Event* out = first;
     for (int axis = 0; axis < 3; ++axis) {
-      std::size_t kept = 0;
-      for (const Event& e : node.axis(axis)) kept += side[e.tri()] == keep ? 1 : 0;
-      count[axis] = kept + fresh[axis].size();
-    }
-    child.events.resize(count[0] + count[1] + count[2]);
-    Event* out = child.events.data();
-    for (int axis = 0; axis < 3; ++axis) {
-      child.axis_begin[axis] = static_cast<std::size_t>(out - child.events.data());
+      child.axis_begin[axis] = static_cast<std::size_t>(out - first);
       const Event* add = fresh[axis].data();
       const Event* const add_end = add + fresh[axis].size();
       for (const Event& e : node.axis(axis)) {
@@ -260,7 +278,8 @@ class SahBuilder {
       }
       while (add != add_end) *out++ = *add++;
     }
-    child.axis_begin[3] = child.events.size();
+    child.axis_begin[3] = static_cast<std::size_t>(out - first);
+    child.events.resize(child.axis_begin[3]);
   }
 
   std::span<const Triangle> triangles_;

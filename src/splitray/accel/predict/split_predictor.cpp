@@ -44,6 +44,8 @@ std::optional<SplitPrediction> SplitPredictor::predict(std::uint64_t path, int d
     p.fraction = std::get<WienerPredictor>(t.filter).predict();
     variance = t.error_power;
   }
+  // A split lies inside its cell: a prediction beyond it is no better than the nearest face.
+  if (std::isfinite(p.fraction)) p.fraction = std::clamp(p.fraction, 0.0, 1.0);
   p.half_width = std::max(config_.sigmas * std::sqrt(variance), config_.min_half_width);
   if (!(p.half_width <= config_.max_half_width) || !std::isfinite(p.fraction)) return std::nullopt;
   p.max_cost_ratio = t.cost_ratio * (1 + config_.cost_tolerance);

@@ -32,6 +32,7 @@ class FlannIndex final : public NeighborIndex {
 
   KnnResult knn(std::span<const Vec3> queries, int k) const override {
     check_k(k, points_, "k-nearest search");
+    check_queries(queries, "k-nearest search");
     KnnResult result = make_knn_result(queries.size(), k);
     const std::size_t kk = static_cast<std::size_t>(k);
     const std::vector<std::uint32_t> ord = order(queries);
@@ -57,6 +58,7 @@ class FlannIndex final : public NeighborIndex {
 
   RadiusResult radius(std::span<const Vec3> queries, float r) const override {
     check_radius(r, "radius search");
+    check_queries(queries, "radius search");
     const float r2 = strict_radius_squared(r);
     const std::vector<std::uint32_t> ord = order(queries);
     return gather_radius_chunks(queries.size(), ord, [&](std::size_t b, std::size_t e, const auto& emit) {
@@ -68,7 +70,7 @@ class FlannIndex final : public NeighborIndex {
       for (std::size_t row = 0; row < e - b; ++row) {
         found.clear();
         for (std::size_t m = 0; m < indices[row].size(); ++m)
-          found.push_back({dists[row][m], static_cast<std::uint32_t>(indices[row][m])});
+          found.emplace_back(dists[row][m], static_cast<std::uint32_t>(indices[row][m]));
         emit(found);
       }
     });

@@ -40,6 +40,7 @@ class NanoflannIndex final : public NeighborIndex {
 
   KnnResult knn(std::span<const Vec3> queries, int k) const override {
     check_k(k, points_, "k-nearest search");
+    check_queries(queries, "k-nearest search");
     KnnResult result = make_knn_result(queries.size(), k);
     const std::size_t kk = static_cast<std::size_t>(k);
     for_each_query(queries, order(queries), [&](std::size_t q, const Vec3& query) {
@@ -53,11 +54,12 @@ class NanoflannIndex final : public NeighborIndex {
 
   RadiusResult radius(std::span<const Vec3> queries, float r) const override {
     check_radius(r, "radius search");
+    check_queries(queries, "radius search");
     const float r2 = strict_radius_squared(r);
     return gather_radius(queries, order(queries), [&](std::size_t, const Vec3& query, auto& found) {
       thread_local std::vector<std::pair<std::uint32_t, float>> pairs;
       tree_->radiusSearch(&query.x, r2, pairs, nanoflann::SearchParams(32, 0, true));
-      for (const auto& [i, d2] : pairs) found.push_back({d2, i});
+      for (const auto& [i, d2] : pairs) found.emplace_back(d2, i);
     });
   }
 
