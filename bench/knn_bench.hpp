@@ -24,7 +24,7 @@ struct KnnBenchOptions {
                                          "flann+order"};
   std::vector<int> ks = {1, 8, 16};
   double radius_fraction = 0.005;    // radius search: this share of the bounding-box diagonal
-  int leaf_size = 12;                // every tree, ours and the peers'
+  int leaf_size = 10;                // every tree, ours and the peers'
   bool quick = false;                // smoke test: vendored meshes, 100k points, 1 run
   int threads = 0;                   // 0 = all cores
   std::uint64_t seed = 1;

@@ -21,9 +21,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-void write(const fs::path& path, const std::string& text) {
-  std::ofstream(path) << text;
-}
+void write(const fs::path& path, const std::string& text) { std::ofstream(path) << text; }
 
 // Predicted trees over `frames`: closest hits equal brute force's for primary and random
 // rays; predictions are used from frame 1 on.
@@ -43,7 +41,8 @@ void expect_brute_hits(const std::vector<std::vector<Triangle>>& frames, Predict
       kd->intersect(rays, a);
       brute->intersect(rays, b);
       std::size_t bad = 0;
-      for (std::size_t r = 0; r < rays.size(); ++r) bad += a[r].prim != b[r].prim || a[r].t != b[r].t;
+      for (std::size_t r = 0; r < rays.size(); ++r)
+        bad += a[r].prim != b[r].prim || a[r].t != b[r].t;
       EXPECT_EQ(bad, 0u) << "frame " << f << " " << predictor_name(kind);
     }
   }
@@ -52,7 +51,8 @@ void expect_brute_hits(const std::vector<std::vector<Triangle>>& frames, Predict
 
 TEST(Animate, PredictedTreesEqualBruteOnHorseCollapse) {
   SPLITRAY_REQUIRE_SHARED(first, "anim_horse_collapse/frames/horse-collapse-01.obj.gz");
-  const std::string pattern = (fs::path(first).parent_path() / "horse-collapse-%02d.obj.gz").string();
+  const std::string pattern =
+      (fs::path(first).parent_path() / "horse-collapse-%02d.obj.gz").string();
   const FrameSequence sequence({pattern});
   EXPECT_EQ(sequence.size(), 53u);
   const auto frames = load_frames(sequence, 8);
@@ -63,7 +63,8 @@ TEST(Animate, PredictedTreesEqualBruteOnHorseCollapse) {
 
 // Without shared data: the vendored horse, bent a little more every frame.
 std::vector<std::vector<Triangle>> bending_horse(int count) {
-  const std::vector<Triangle> base = load_mesh(test::vendored_file("horse/horse.obj.gz")).triangles();
+  const std::vector<Triangle> base =
+      load_mesh(test::vendored_file("horse/horse.obj.gz")).triangles();
   Aabb box;
   for (const Triangle& t : base) box.extend(t.bounds());
   std::vector<std::vector<Triangle>> frames;
@@ -108,7 +109,8 @@ TEST(Animate, PredictedSahCostStaysClose) {
   golden.builder = "golden";
   for (std::size_t f = 0; f < frames.size(); ++f) {
     PredictedBuildStats stats;
-    const double predicted = *make_kd_predicted(frames[f], golden, predictor, stats)->stats().sah_cost;
+    const double predicted =
+        *make_kd_predicted(frames[f], golden, predictor, stats)->stats().sah_cost;
     const double full = *make_kd(frames[f], golden)->stats().sah_cost;
     EXPECT_LT(predicted, full * 1.05) << "frame " << f;
   }
@@ -132,7 +134,8 @@ TEST(Frames, ChangingTriangleCountIsRefused) {
 
 TEST(Frames, PatternsGlobsAndFoldersExpand) {
   const fs::path dir = test::temp_dir("frames_expand");
-  for (int i = 1; i <= 3; ++i) write(dir / ("h-0" + std::to_string(i) + ".obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  for (int i = 1; i <= 3; ++i)
+    write(dir / ("h-0" + std::to_string(i) + ".obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
   const std::vector<std::string> want = {(dir / "h-01.obj").string(), (dir / "h-02.obj").string(),
                                          (dir / "h-03.obj").string()};
   EXPECT_EQ(expand_frame_paths({(dir / "h-%02d.obj").string()}), want);  // starts at 1
@@ -157,7 +160,7 @@ TEST(Aff, MuseumTriangleCount) {
   ASSERT_EQ(a.size(), b.size());
   std::size_t moved = 0;
   for (std::size_t i = 0; i < a.size(); ++i) moved += a[i].v0 != b[i].v0;
-  EXPECT_GT(moved, 500u);  // the art piece's triangles fly
+  EXPECT_GT(moved, 500u);   // the art piece's triangles fly
   EXPECT_LT(moved, 2000u);  // the museum stands still
   const FrameSequence sequence({path});
   EXPECT_EQ(sequence.size(), 300u);
@@ -175,15 +178,18 @@ std::string aff_error(const std::string& text, const std::string& name = "scene.
 }
 
 TEST(Aff, ErrorsNameFileAndLine) {
-  EXPECT_NE(aff_error("p 3\n0 0 0\n1 0 0\n0 1 0\nbogus 1 2\n").find("scene.aff:5: unknown statement 'bogus'"),
+  EXPECT_NE(aff_error("p 3\n0 0 0\n1 0 0\n0 1 0\nbogus 1 2\n")
+                .find("scene.aff:5: unknown statement 'bogus'"),
             std::string::npos);
-  EXPECT_NE(aff_error("p 3\n0 0 0\n1 0 x\n").find("scene.aff:3: 'x' is not a number"), std::string::npos);
+  EXPECT_NE(aff_error("p 3\n0 0 0\n1 0 x\n").find("scene.aff:3: 'x' is not a number"),
+            std::string::npos);
   EXPECT_NE(aff_error("p 3\n0 0 0\n1 0 0\n").find("the file ends"), std::string::npos);
   EXPECT_NE(aff_error("xs 1 1 1 0 0 1 0 0 0 0\n{\np 3 0 0 0 1 0 0 0 1 0\n").find("missing '}'"),
             std::string::npos);
   EXPECT_NE(aff_error("}\n").find("'}' without"), std::string::npos);
-  EXPECT_NE(aff_error("m\nvertices 3\n0 0 0 1 0 0 0 1 0\ntriangles 1\n0 1 7\n").find("out of range"),
-            std::string::npos);
+  EXPECT_NE(
+      aff_error("m\nvertices 3\n0 0 0 1 0 0 0 1 0\ntriangles 1\n0 1 7\n").find("out of range"),
+      std::string::npos);
   EXPECT_NE(aff_error("p 99999999999\n").find("bad vertex count"), std::string::npos);
   EXPECT_NE(aff_error("i 0 nowhere.aff\n").find("nowhere.aff"), std::string::npos);
   EXPECT_NE(aff_error("i 0 loop.aff\n", "loop.aff").find("nested deeper"), std::string::npos);
@@ -198,7 +204,8 @@ TEST(Aff, KeyFramedTransformMovesItsContent) {
         "a 0 2 3\n"
         "k slide { transl 2\n 0  0 0 0  0 0 0\n 2  4 0 0  0 0 0\n }\n"
         "x slide {\n  xs 2 2 2  0 0 1 90  0 0 0 { p 3 1 0 0 0 0 0 0 1 0 }\n}\n"
-        "tpa 2\n 0  0 0 5 0 0 1  1 0 5 0 0 1  0 1 5 0 0 1\n 2  0 0 7 0 0 1  1 0 7 0 0 1  0 1 7 0 0 1\n");
+        "tpa 2\n 0  0 0 5 0 0 1  1 0 5 0 0 1  0 1 5 0 0 1\n 2  0 0 7 0 0 1  1 0 7 0 0 1  0 1 7 0 0 "
+        "1\n");
   const AffScene scene = AffScene::load((dir / "k.aff").string());
   ASSERT_EQ(scene.triangle_count(), 2u);
   const auto t0 = scene.triangles_at(0), t2 = scene.triangles_at(2), t1 = scene.triangles_at(1);

@@ -325,6 +325,19 @@ TEST(KnnTest, DegenerateInputs) {
   }
 }
 
+TEST(KnnTest, NoQueriesGiveEmptyResults) {
+  const PointSet& set = horse_points();
+  for (const std::string& name : neighbor_index_names()) {
+    const auto index = make_neighbor_index(set.points, {.builder = name});
+    const KnnResult knn = index->knn({}, 3);
+    EXPECT_EQ(knn.queries, 0u) << name;
+    EXPECT_TRUE(knn.indices.empty()) << name;
+    const RadiusResult within = index->radius({}, 1);
+    EXPECT_EQ(within.queries(), 0u) << name;
+    EXPECT_TRUE(within.indices.empty()) << name;
+  }
+}
+
 TEST(KnnTest, BadInputIsAClearError) {
   const std::vector<Vec3> empty;
   const std::vector<Vec3> points{Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0)};

@@ -62,7 +62,9 @@ double mean_from(const std::vector<FrameRow>& rows, std::size_t first, double Fr
   return sum / static_cast<double>(rows.size() - first);
 }
 
-std::string optional_number(const std::optional<double>& v) { return v ? fmt::format("{:.9g}", *v) : ""; }
+std::string optional_number(const std::optional<double>& v) {
+  return v ? fmt::format("{:.9g}", *v) : "";
+}
 
 std::string csv_text(const std::vector<FrameRow>& rows, const FrameSequence& frames,
                      const std::string& predictor) {
@@ -73,14 +75,15 @@ std::string csv_text(const std::vector<FrameRow>& rows, const FrameSequence& fra
          "root_predicted,trace_ms_full,trace_ms_predicted,hit_mismatches,label\n";
   for (std::size_t i = 0; i < rows.size(); ++i) {
     const FrameRow& r = rows[i];
-    out << fmt::format("{},{},{:.4f},{:.4f},{:.4f},{:.6f},{:.6f},{},{},{},{},{},{},{},{:.6g},{:.6g},{},{},{},{:.4f},{:.4f},{},\"{}\"\n",
-                       i, predictor, r.build_ms_full, r.build_ms_predicted, r.build_ms_sah,
-                       r.sah_full, r.sah_predicted, r.nodes_full, r.nodes_predicted, r.evals_full,
-                       r.evals_predicted, r.predicted.searched_nodes, r.predicted.predicted_nodes,
-                       r.predicted.fallbacks, r.predicted.mean_error, r.predicted.max_error,
-                       r.predicted.root_axis, optional_number(r.predicted.root_actual),
-                       optional_number(r.predicted.root_predicted), r.trace_ms_full,
-                       r.trace_ms_predicted, r.hit_mismatches, frames.label(i));
+    out << fmt::format(
+        "{},{},{:.4f},{:.4f},{:.4f},{:.6f},{:.6f},{},{},{},{},{},{},{},{:.6g},{:.6g},{},{},{},{:."
+        "4f},{:.4f},{},\"{}\"\n",
+        i, predictor, r.build_ms_full, r.build_ms_predicted, r.build_ms_sah, r.sah_full,
+        r.sah_predicted, r.nodes_full, r.nodes_predicted, r.evals_full, r.evals_predicted,
+        r.predicted.searched_nodes, r.predicted.predicted_nodes, r.predicted.fallbacks,
+        r.predicted.mean_error, r.predicted.max_error, r.predicted.root_axis,
+        optional_number(r.predicted.root_actual), optional_number(r.predicted.root_predicted),
+        r.trace_ms_full, r.trace_ms_predicted, r.hit_mismatches, frames.label(i));
   }
   return out.str();
 }
@@ -98,8 +101,10 @@ std::string find_plot_script() {
   }
   roots.push_back(fs::current_path());
   for (const fs::path& root : roots)
-    if (fs::exists(root / "scripts" / "plot_animate.py")) return (root / "scripts" / "plot_animate.py").string();
-  throw Error("--plot", "scripts/plot_animate.py not found (set SPLITRAY_SOURCE_DIR to the source tree)");
+    if (fs::exists(root / "scripts" / "plot_animate.py"))
+      return (root / "scripts" / "plot_animate.py").string();
+  throw Error("--plot",
+              "scripts/plot_animate.py not found (set SPLITRAY_SOURCE_DIR to the source tree)");
 }
 
 void plot(const std::string& csv_path, const std::string& png) {
@@ -128,8 +133,8 @@ Mesh mesh_of(const std::vector<Triangle>& triangles) {
   return mesh;
 }
 
-void render_frame(const std::vector<Triangle>& triangles, const Camera& camera, const BuildConfig& build,
-                  const std::string& dir, std::size_t index) {
+void render_frame(const std::vector<Triangle>& triangles, const Camera& camera,
+                  const BuildConfig& build, const std::string& dir, std::size_t index) {
   RenderOptions options;
   options.width = 640;
   options.height = 480;
@@ -155,7 +160,8 @@ void write_results(const std::string& path, const std::string& key, const Json& 
   if (fs::exists(path)) {
     std::ifstream in(path);
     all = Json::parse(in, nullptr, false);
-    if (all.is_discarded() || !all.is_object()) throw Error("--results " + path, "not a JSON object; refusing to overwrite it");
+    if (all.is_discarded() || !all.is_object())
+      throw Error("--results " + path, "not a JSON object; refusing to overwrite it");
   }
   all["runs"][key] = summary;
   write_file_atomically(path, all.dump(2) + "\n");
@@ -164,11 +170,13 @@ void write_results(const std::string& path, const std::string& key, const Json& 
       "sah_cost_ratio | trace_ratio | mean err | predicted nodes |\n"
       "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const auto& [name, r] : all["runs"].items()) {
-    md += fmt::format("| {} | {} | {} | {:.1f} | {:.1f} | {:.1f} | {:.3f} | {:.4f} | {:.3f} | {:.4f} | {:.2f} |\n", name,
-                      r.value("frames", 0), r.value("triangles", 0), r.value("mean_build_ms_full", 0.0),
-                      r.value("mean_build_ms_predicted", 0.0), r.value("mean_build_ms_sah", 0.0),
-                      r.value("reduction", 0.0), r.value("sah_cost_ratio", 0.0), r.value("trace_ratio", 0.0),
-                      r.value("mean_prediction_error", 0.0), r.value("predicted_node_share", 0.0));
+    md += fmt::format(
+        "| {} | {} | {} | {:.1f} | {:.1f} | {:.1f} | {:.3f} | {:.4f} | {:.3f} | {:.4f} | {:.2f} "
+        "|\n",
+        name, r.value("frames", 0), r.value("triangles", 0), r.value("mean_build_ms_full", 0.0),
+        r.value("mean_build_ms_predicted", 0.0), r.value("mean_build_ms_sah", 0.0),
+        r.value("reduction", 0.0), r.value("sah_cost_ratio", 0.0), r.value("trace_ratio", 0.0),
+        r.value("mean_prediction_error", 0.0), r.value("predicted_node_share", 0.0));
   }
   fs::path md_path(path);
   md_path.replace_extension(".md");
@@ -177,7 +185,8 @@ void write_results(const std::string& path, const std::string& key, const Json& 
 
 void run_embree(const AnimateCommand& command, const std::vector<std::vector<Triangle>>& frames) {
   if (command.accel.build.builder == "refit")
-    throw Error("--accel embree --builder refit", "Embree refitting is not implemented yet; use low|medium|high");
+    throw Error("--accel embree --builder refit",
+                "Embree refitting is not implemented yet; use low|medium|high");
   std::vector<double> ms;
   ProgressBar bar("animate");
   for (std::size_t i = 0; i < frames.size(); ++i) {
@@ -191,11 +200,16 @@ void run_embree(const AnimateCommand& command, const std::vector<std::vector<Tri
   for (std::size_t i = ms.size() > 1 ? 1 : 0; i < ms.size(); ++i) sum += ms[i];
   const double mean = sum / static_cast<double>(ms.size() > 1 ? ms.size() - 1 : 1);
   if (command.json) {
-    print_json({{"frames", frames.size()}, {"triangles", frames[0].size()}, {"accel", "embree"},
-                {"builder", command.accel.build.builder.empty() ? "default" : command.accel.build.builder},
-                {"mean_build_ms", mean}, {"build_ms", ms}});
+    print_json(
+        {{"frames", frames.size()},
+         {"triangles", frames[0].size()},
+         {"accel", "embree"},
+         {"builder", command.accel.build.builder.empty() ? "default" : command.accel.build.builder},
+         {"mean_build_ms", mean},
+         {"build_ms", ms}});
   } else {
-    for (std::size_t i = 0; i < ms.size(); ++i) fmt::print("frame {:4d}  build_ms {:9.3f}\n", i, ms[i]);
+    for (std::size_t i = 0; i < ms.size(); ++i)
+      fmt::print("frame {:4d}  build_ms {:9.3f}\n", i, ms[i]);
     print_table({{"frames", std::to_string(frames.size())},
                  {"triangles", std::to_string(frames[0].size())},
                  {"mean_build_ms (embree, frames 1..)", fmt::format("{:.3f}", mean)}});
@@ -214,7 +228,8 @@ void run(AnimateCommand command) {
   const ThreadLimit limit(command.accel.build.threads);
   if (command.accel.accel == "embree") return run_embree(command, frames);
   if (command.accel.accel != "kd")
-    throw Error("--accel " + command.accel.accel, "animate rebuilds kd-trees (--accel kd) or Embree (--accel embree)");
+    throw Error("--accel " + command.accel.accel,
+                "animate rebuilds kd-trees (--accel kd) or Embree (--accel embree)");
 
   BuildConfig base = command.accel.build;
   if (base.builder.empty()) base.builder = "golden";
@@ -249,7 +264,8 @@ void run(AnimateCommand command) {
     row.evals_full = full->stats().cost_evals;
     row.evals_predicted = predicted->stats().cost_evals;
     if (command.rays > 0) {
-      const std::vector<Ray> rays = make_rays(tris, RayKind::primary, command.seed + i, command.rays);
+      const std::vector<Ray> rays =
+          make_rays(tris, RayKind::primary, command.seed + i, command.rays);
       // Alternate the order so that neither tree always runs on warm caches.
       if (i % 2 == 0) {
         row.trace_ms_full = trace_ms(*full, rays, hits_full);
@@ -259,7 +275,8 @@ void run(AnimateCommand command) {
         row.trace_ms_full = trace_ms(*full, rays, hits_full);
       }
       for (std::size_t r = 0; r < rays.size(); ++r)
-        row.hit_mismatches += hits_full[r].prim != hits_predicted[r].prim || hits_full[r].t != hits_predicted[r].t;
+        row.hit_mismatches +=
+            hits_full[r].prim != hits_predicted[r].prim || hits_full[r].t != hits_predicted[r].t;
     }
     if (!command.render_dir.empty()) {
       if (!camera) {
@@ -277,7 +294,8 @@ void run(AnimateCommand command) {
   const double full_ms = mean_from(rows, 1, &FrameRow::build_ms_full);
   const double predicted_ms = mean_from(rows, 1, &FrameRow::build_ms_predicted);
   const double sah_ms = mean_from(rows, 1, &FrameRow::build_ms_sah);
-  const double sah_ratio = mean_from(rows, 0, &FrameRow::sah_predicted) / mean_from(rows, 0, &FrameRow::sah_full);
+  const double sah_ratio =
+      mean_from(rows, 0, &FrameRow::sah_predicted) / mean_from(rows, 0, &FrameRow::sah_full);
   const double trace_full = mean_from(rows, 0, &FrameRow::trace_ms_full);
   const double trace_predicted = mean_from(rows, 0, &FrameRow::trace_ms_predicted);
   const double trace_ratio = trace_predicted > 0 ? trace_full / trace_predicted : 0;
@@ -302,7 +320,8 @@ void run(AnimateCommand command) {
   const std::string csv = csv_text(rows, sequence, command.predictor);
   if (!command.csv.empty()) write_file_atomically(command.csv, csv);
   if (!command.plot.empty()) {
-    const fs::path tmp = fs::temp_directory_path() / fmt::format("splitray-animate-{}.csv", ::getpid());
+    const fs::path tmp =
+        fs::temp_directory_path() / fmt::format("splitray-animate-{}.csv", ::getpid());
     write_file_atomically(tmp.string(), csv);
     plot(tmp.string(), command.plot);
     fs::remove(tmp);
@@ -330,24 +349,27 @@ void run(AnimateCommand command) {
       {"first_frame", sequence.label(0)},
   };
   if (!command.results.empty())
-    write_results(command.results, sequence_name(command, sequence) + "/" + command.predictor, summary);
+    write_results(command.results, sequence_name(command, sequence) + "/" + command.predictor,
+                  summary);
   if (command.json) {
     print_json(summary);
     return;
   }
   fmt::print("{:>5} {:>10} {:>10} {:>10} {:>9} {:>9} {:>8} {:>9} {:>9} {:>8} {:>8}\n", "frame",
-             "full_ms", "pred_ms", "sah_ms", "sah_full", "sah_pred", "nodes", "evals_f",
-             "evals_p", "err_mean", "err_max");
+             "full_ms", "pred_ms", "sah_ms", "sah_full", "sah_pred", "nodes", "evals_f", "evals_p",
+             "err_mean", "err_max");
   for (std::size_t i = 0; i < rows.size(); ++i) {
     const FrameRow& r = rows[i];
-    fmt::print("{:5d} {:10.3f} {:10.3f} {:10.3f} {:9.3f} {:9.3f} {:8d} {:9d} {:9d} {:8.4f} {:8.4f}\n", i,
-               r.build_ms_full, r.build_ms_predicted, r.build_ms_sah, r.sah_full, r.sah_predicted,
-               r.nodes_predicted, r.evals_full, r.evals_predicted, r.predicted.mean_error,
-               r.predicted.max_error);
+    fmt::print(
+        "{:5d} {:10.3f} {:10.3f} {:10.3f} {:9.3f} {:9.3f} {:8d} {:9d} {:9d} {:8.4f} {:8.4f}\n", i,
+        r.build_ms_full, r.build_ms_predicted, r.build_ms_sah, r.sah_full, r.sah_predicted,
+        r.nodes_predicted, r.evals_full, r.evals_predicted, r.predicted.mean_error,
+        r.predicted.max_error);
   }
   std::vector<std::pair<std::string, std::string>> table;
   for (const auto& [key, value] : summary.items())
-    table.emplace_back(key, value.is_number_float() ? fmt::format("{:.4f}", value.get<double>()) : value.dump());
+    table.emplace_back(
+        key, value.is_number_float() ? fmt::format("{:.4f}", value.get<double>()) : value.dump());
   print_table(table);
 }
 
@@ -369,19 +391,28 @@ void add_animate_command(CLI::App& app) {
   sub->add_option("--frames", command->max_frames, "Use only the first N frames (0 = all)");
   sub->add_option("--rays", command->rays, "Primary rays per frame for trace_ratio (0 = none)");
   sub->add_option("--seed", command->seed, "Seed of the ray sets");
-  sub->add_option("--sigmas", command->config.sigmas, "Bracket half width in predicted standard deviations");
-  sub->add_option("--min-bracket", command->config.min_half_width, "Smallest bracket half width (fraction of the cell)");
-  sub->add_option("--kalman-q", command->config.kalman.process_noise, "Kalman process noise (cell fractions^2)");
-  sub->add_option("--kalman-r", command->config.kalman.measurement_noise, "Kalman measurement noise (cell fractions^2)");
-  sub->add_option("--wiener-order", command->config.wiener.order, "Wiener filter taps")->check(CLI::Range(1, kWienerMaxOrder));
+  sub->add_option("--sigmas", command->config.sigmas,
+                  "Bracket half width in predicted standard deviations");
+  sub->add_option("--min-bracket", command->config.min_half_width,
+                  "Smallest bracket half width (fraction of the cell)");
+  sub->add_option("--kalman-q", command->config.kalman.process_noise,
+                  "Kalman process noise (cell fractions^2)");
+  sub->add_option("--kalman-r", command->config.kalman.measurement_noise,
+                  "Kalman measurement noise (cell fractions^2)");
+  sub->add_option("--wiener-order", command->config.wiener.order, "Wiener filter taps")
+      ->check(CLI::Range(1, kWienerMaxOrder));
   sub->add_option("--wiener-step", command->config.wiener.step, "NLMS step size mu");
-  sub->add_option("--refresh", command->config.refresh_frames, "Re-check a node's other axes at least every N frames");
+  sub->add_option("--refresh", command->config.refresh_frames,
+                  "Re-check a node's other axes at least every N frames");
   sub->add_flag("--json", command->json, "Print the summary as one JSON object");
   sub->add_option("--csv", command->csv, "Write per-frame rows to this CSV file");
-  sub->add_option("--plot", command->plot, "Draw build times and root splits (paper Fig. 7) to this PNG");
-  sub->add_option("--results", command->results,
-                  "Merge the summary into this JSON file (and its .md table), keyed sequence/predictor");
-  sub->add_option("--name", command->name, "Name of the sequence in --results (default: its folder)");
+  sub->add_option("--plot", command->plot,
+                  "Draw build times and root splits (paper Fig. 7) to this PNG");
+  sub->add_option(
+      "--results", command->results,
+      "Merge the summary into this JSON file (and its .md table), keyed sequence/predictor");
+  sub->add_option("--name", command->name,
+                  "Name of the sequence in --results (default: its folder)");
   sub->add_option("--render", command->render_dir, "Render every frame as a PNG into this folder");
   sub->callback([command] { run(*command); });
 }

@@ -25,7 +25,7 @@ struct KnnCommand {
   int k = 8;
   std::size_t queries = 100000;
   std::uint64_t seed = 1;
-  std::optional<float> radius;
+  std::optional<double> radius;  // parsed as given; searched as float
   std::size_t samples = 1000000;
   NeighborIndexConfig index;
   int threads = 0;
@@ -33,7 +33,8 @@ struct KnnCommand {
 };
 
 void run(const KnnCommand& command) {
-  if (command.radius) check_radius(*command.radius, "--radius");
+  const float radius = command.radius ? static_cast<float>(*command.radius) : 0.0f;
+  if (command.radius) check_radius(radius, "--radius");
   if (!command.radius && command.k < 1)
     throw Error("--k", "k must be at least 1 (got " + std::to_string(command.k) + ")");
   const ThreadLimit limit(command.threads);
@@ -45,13 +46,13 @@ void run(const KnnCommand& command) {
 
   NeighborIndexConfig config = command.index;
   // A radius search builds the VVH for that radius (paper 003 §6.3), unless told otherwise.
-  if (command.radius && !(config.radius > 0) && *command.radius > 0) config.radius = *command.radius;
+  if (command.radius && !(config.radius > 0) && radius > 0) config.radius = radius;
   const auto index = make_neighbor_index(input.points, config);
 
   const Timer query_timer;
   NeighborSummary summary;
   if (command.radius) {
-    summary = summarize(index->radius(queries, *command.radius));
+    summary = summarize(index->radius(queries, radius));
   } else {
     summary = summarize(index->knn(queries, command.k));
   }

@@ -2,6 +2,10 @@
 
 #include <tbb/parallel_invoke.h>
 
+#if defined(__AVX512F__)
+#include <immintrin.h>
+#endif
+
 #include <algorithm>
 #include <array>
 #include <bit>
@@ -139,7 +143,6 @@ class Builder {
   static constexpr std::size_t kParallelPoints = 16384;  // smaller subtrees: one task
   static constexpr std::size_t kParallelAxes = 131072;   // larger nodes: axes in parallel
   static constexpr std::size_t kMaxCostLeaf = 1024;      // larger nodes split whatever the cost
-  static constexpr int kSweepBlock = 512;
 
   // Axis `sorted` (the order), buffer (parity bit): coordinates and ids.
   Columns columns(int sorted, unsigned parity) {
@@ -192,7 +195,7 @@ class Builder {
   // at the points nearest the plane (below_max, above_min), as traversal sees it, and grown by
   // the radius on every side. VVH: volume = extent_a × P; SAH: half area = extent_a × S + P.
   // Costs are non-negative floats, so their bits order like unsigned integers: an integer
-  // minimum vectorises, then the first position reaching it is found.
+  // minimum vectorises.
   Split sweep(std::size_t b, std::size_t e, const Aabb& cell, int a, unsigned parity) {
     const int n = static_cast<int>(e - b);
     const float* keys = columns(a, parity).c[a] + b;
@@ -208,22 +211,16 @@ class Builder {
       const std::uint32_t same = static_cast<std::uint32_t>(!(key > prev));  // 1: not a candidate
       return std::bit_cast<std::uint32_t>(cost) | (0u - same);
     };
-    std::uint32_t best = UINT32_MAX;
-    int pos = 1;  // the start of the first block holding the minimum, then its position
-    for (int s = 1; s < n; s += kSweepBlock) {
-      const int t = std::min(n, s + kSweepBlock);
-      std::uint32_t block = UINT32_MAX;
-      for (int i = s; i < t; ++i) {
-        const std::uint32_t bits = cost_bits(i);
-        block = bits < block ? bits : block;
-      }
-      if (block < best) {
-        best = block;
-        pos = s;
-      }
+    // (cost bits, position) in one integer: its minimum is the cheapest candidate, ties to the
+    // first position, in one vectorised pass.
+    std::uint64_t best_key = UINT64_MAX;
+    for (int i = 1; i < n; ++i) {
+      const std::uint64_t key = (static_cast<std::uint64_t>(cost_bits(i)) << 32) | static_cast<std::uint32_t>(i);
+      best_key = key < best_key ? key : best_key;
     }
-    if (best == UINT32_MAX) return {};  // no spread along this axis
-    while (cost_bits(pos) != best) ++pos;
+    const auto best = static_cast<std::uint32_t>(best_key >> 32);
+    if (best == UINT32_MAX) return {};  // no spread along this axis (NaN costs cannot occur)
+    const auto pos = static_cast<std::uint32_t>(best_key);
     const double cost = static_cast<double>(std::bit_cast<float>(best)) * (sah ? 1.0f : P);
     return {a, static_cast<std::size_t>(pos), cost};
   }
@@ -262,8 +259,30 @@ class Builder {
       const Columns from = columns(j, parity);
       const Columns to = columns(j, parity ^ (1u << j));
       const float* split_coord = from.c[a];
-      std::size_t below = b, above = b + below_count;
-      for (std::size_t i = b; i < e; ++i) {
+      std::size_t below = b, above = b + below_count, i = b;
+#if defined(__AVX512F__)
+      // 16 at a time: compress each column's lanes for either side and store just those (masked
+      // stores: a full store would spill into the other side or a neighbouring node's range).
+      const __m512 plane = _mm512_set1_ps(above_min);
+      for (; i + 16 <= e; i += 16) {
+        const __mmask16 goes_below = _mm512_cmp_ps_mask(_mm512_loadu_ps(split_coord + i), plane, _CMP_LT_OQ);
+        const __mmask16 goes_above = static_cast<__mmask16>(~goes_below);
+        const int nb = std::popcount(static_cast<unsigned>(goes_below));
+        const __mmask16 first_below = static_cast<__mmask16>((1u << nb) - 1);
+        const __mmask16 first_above = static_cast<__mmask16>((1u << (16 - nb)) - 1);
+        for (int m = 0; m < 3; ++m) {
+          const __m512 v = _mm512_loadu_ps(from.c[m] + i);
+          _mm512_mask_storeu_ps(to.c[m] + below, first_below, _mm512_maskz_compress_ps(goes_below, v));
+          _mm512_mask_storeu_ps(to.c[m] + above, first_above, _mm512_maskz_compress_ps(goes_above, v));
+        }
+        const __m512i ids = _mm512_loadu_si512(from.id + i);
+        _mm512_mask_storeu_epi32(to.id + below, first_below, _mm512_maskz_compress_epi32(goes_below, ids));
+        _mm512_mask_storeu_epi32(to.id + above, first_above, _mm512_maskz_compress_epi32(goes_above, ids));
+        below += nb;
+        above += 16 - nb;
+      }
+#endif
+      for (; i < e; ++i) {
         const bool goes_below = split_coord[i] < above_min;
         const std::size_t slot = goes_below ? below : above;
         below += goes_below ? 1 : 0;

@@ -4,6 +4,7 @@
 #include <tbb/parallel_invoke.h>
 
 #include <algorithm>
+#include <bit>
 #include <atomic>
 #include <cmath>
 #include <limits>
@@ -74,15 +75,18 @@ class BihBuilder {
   template <class GoesLeft>
   std::size_t partition(std::size_t begin, std::size_t end, const GoesLeft& goes_left, RefBounds& left,
                         RefBounds& right) {
+    RefBoundsAccumulator l, r;
     std::size_t i = begin, j = end;
     for (;;) {
-      while (i < j && goes_left(refs_[i])) left.extend(refs_[i++]);
-      while (i < j && !goes_left(refs_[j - 1])) right.extend(refs_[--j]);
+      while (i < j && goes_left(refs_[i])) l.add(refs_[i++]);
+      while (i < j && !goes_left(refs_[j - 1])) r.add(refs_[--j]);
       if (i >= j) break;
       std::swap(refs_[i], refs_[j - 1]);
-      left.extend(refs_[i++]);
-      right.extend(refs_[--j]);
+      l.add(refs_[i++]);
+      r.add(refs_[--j]);
     }
+    left = l.bounds();
+    right = r.bounds();
     return i - begin;
   }
 
@@ -237,10 +241,11 @@ class BihBuilder {
       }
     }
     if (best < 0) return -1;
-    const double n = static_cast<double>(t.end - t.begin);
-    const double subtree = options_.traversal_cost * std::log2(n + 1) +
-                           options_.intersection_cost * std::min(n, static_cast<double>(std::max(options_.leaf_size, 1)));
-    return (1.0 - best_area / area) * subtree > options_.traversal_cost ? best : -1;
+    // A rough cost of the subtree below: one traversal step per level, one leaf.
+    const std::size_t n = t.end - t.begin;
+    const float subtree = options_.traversal_cost * static_cast<float>(std::bit_width(n)) +
+                          options_.intersection_cost * static_cast<float>(std::min<std::size_t>(n, static_cast<std::size_t>(std::max(options_.leaf_size, 1))));
+    return (1.0f - best_area / area) * subtree > options_.traversal_cost ? best : -1;
   }
 
   void build(BihPiece& piece, std::size_t slot, const Task& t, std::uint64_t& evals) {

@@ -45,8 +45,9 @@ struct BvhNodeTraits {
 
 using BvhPiece = Piece<BvhNode>;
 
-// A triangle, or the part of it inside some region, and the bounds of that part.
-struct BvhRef {
+// A triangle, or the part of it inside some region, and the bounds of that part. 32 bytes:
+// the builders move many of them and read lo and hi as SIMD rows.
+struct alignas(32) BvhRef {
   Aabb box;
   std::uint32_t prim = 0;
   Vec3 center() const { return (box.lo + box.hi) * 0.5f; }

@@ -1,5 +1,5 @@
 // Embree's custom BVH builder (rtcBuildBVH) producing our nodes: Embree decides the splits
-// (high quality, with spatial splits done by our exact triangle clipping), the callbacks
+// (high quality, with spatial splits done by our triangle splitting), the callbacks
 // record a temporary binary tree in Embree's thread-local memory, and that tree is laid out
 // as a piece.
 #include <embree3/rtcore.h>
@@ -9,7 +9,7 @@
 #include <new>
 
 #include "splitray/accel/bvh/bvh_build.hpp"
-#include "splitray/accel/kd/clip.hpp"
+#include "splitray/accel/bvh/triangle_split.hpp"
 #include "splitray/core/errors.hpp"
 
 namespace splitray {
@@ -70,12 +70,18 @@ void split_primitive(const RTCBuildPrimitive* prim, unsigned int dim, float posi
   const auto* context = static_cast<const Context*>(user);
   const Triangle& tri = context->triangles[prim->primID];
   const Aabb box = to_aabb(*prim);
-  Aabb below = box, above = box;
-  below.hi[static_cast<int>(dim)] = std::min(position, box.hi[static_cast<int>(dim)]);
-  above.lo[static_cast<int>(dim)] = std::max(position, box.lo[static_cast<int>(dim)]);
-  Aabb l = clip_triangle_bounds(tri, below), r = clip_triangle_bounds(tri, above);
-  if (l.empty()) l = below;  // keep Embree's bookkeeping valid: a conservative part
-  if (r.empty()) r = above;
+  const int axis = static_cast<int>(dim);
+  Aabb l, r;
+  split_triangle_bounds(tri, box, axis, position, l, r);
+  // An empty side would upset Embree's bookkeeping: give it the (conservative) slab instead.
+  if (l.empty()) {
+    l = box;
+    l.hi[axis] = std::clamp(position, box.lo[axis], box.hi[axis]);
+  }
+  if (r.empty()) {
+    r = box;
+    r.lo[axis] = std::clamp(position, box.lo[axis], box.hi[axis]);
+  }
   store(l, left);
   store(r, right);
 }

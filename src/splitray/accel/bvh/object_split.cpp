@@ -58,9 +58,9 @@ struct Bins {
 
 RefBounds ref_bounds(std::span<const BvhRef> refs) {
   const auto chunk = [&](std::size_t begin, std::size_t end) {
-    RefBounds b;
-    for (std::size_t i = begin; i < end; ++i) b.extend(refs[i]);
-    return b;
+    RefBoundsAccumulator b;
+    for (std::size_t i = begin; i < end; ++i) b.add(refs[i]);
+    return b.bounds();
   };
   if (refs.size() < kParallelRefs) return chunk(0, refs.size());
   return tbb::parallel_reduce(
@@ -137,7 +137,7 @@ ObjectSplit find_object_split(std::span<const BvhRef> refs, const RefBounds& bou
       const std::size_t n_right = refs.size() - n_left;
       if (n_left == 0 || n_right == 0) continue;
       ++evals;
-      const float cost = split_cost(options, parent_area, left.half_area(), n_left, right_area[i + 1], n_right);
+      const float cost = bvh_split_cost(options, parent_area, left.half_area(), n_left, right_area[i + 1], n_right);
       if (cost < best.cost) {
         best.cost = cost;
         best.axis = a;
@@ -153,15 +153,18 @@ ObjectSplit find_object_split(std::span<const BvhRef> refs, const RefBounds& bou
 std::size_t partition_refs(std::span<BvhRef> refs, const CenterBins& bins, const ObjectSplit& split,
                            RefBounds& left, RefBounds& right) {
   const auto goes_left = [&](const BvhRef& r) { return bins.bin(r, split.axis) <= split.bin; };
+  RefBoundsAccumulator l, r;
   std::size_t i = 0, j = refs.size();
   for (;;) {
-    while (i < j && goes_left(refs[i])) left.extend(refs[i++]);
-    while (i < j && !goes_left(refs[j - 1])) right.extend(refs[--j]);
+    while (i < j && goes_left(refs[i])) l.add(refs[i++]);
+    while (i < j && !goes_left(refs[j - 1])) r.add(refs[--j]);
     if (i >= j) break;
     std::swap(refs[i], refs[j - 1]);
-    left.extend(refs[i++]);
-    right.extend(refs[--j]);
+    l.add(refs[i++]);
+    r.add(refs[--j]);
   }
+  left.extend(l.bounds());
+  right.extend(r.bounds());
   return i;
 }
 

@@ -3,7 +3,12 @@
 #include <cstddef>
 #include <cstdint>
 #include <algorithm>
+#include <limits>
 #include <span>
+
+#if defined(__SSE2__)
+#include <immintrin.h>
+#endif
 
 #include "splitray/accel/bvh/bvh_build.hpp"
 
@@ -23,6 +28,44 @@ struct RefBounds {
 };
 
 RefBounds ref_bounds(std::span<const BvhRef> refs);  // parallel for large spans
+
+// RefBounds accumulated with SIMD rows (same result as RefBounds::extend: min/max are exact
+// and (lo + hi) * 0.5 is taken after the min/max of lo + hi, which halving commutes with).
+class RefBoundsAccumulator {
+ public:
+#if defined(__SSE2__)
+  void add(const BvhRef& r) {
+    const __m128 lo = _mm_loadu_ps(&r.box.lo.x);  // lane 3 (hi.x) is ignored
+    const __m128 hi = _mm_loadu_ps(&r.box.hi.x);  // lane 3 (the id) is ignored
+    const __m128 c2 = _mm_add_ps(lo, hi);
+    lo_ = _mm_min_ps(lo_, lo);
+    hi_ = _mm_max_ps(hi_, hi);
+    c_lo_ = _mm_min_ps(c_lo_, c2);
+    c_hi_ = _mm_max_ps(c_hi_, c2);
+  }
+  RefBounds bounds() const {
+    alignas(16) float v[4][4];
+    _mm_store_ps(v[0], lo_);
+    _mm_store_ps(v[1], hi_);
+    _mm_store_ps(v[2], c_lo_);
+    _mm_store_ps(v[3], c_hi_);
+    RefBounds b;
+    b.box = {{v[0][0], v[0][1], v[0][2]}, {v[1][0], v[1][1], v[1][2]}};
+    b.centers = {Vec3{v[2][0], v[2][1], v[2][2]} * 0.5f, Vec3{v[3][0], v[3][1], v[3][2]} * 0.5f};
+    return b;
+  }
+
+ private:
+  __m128 lo_ = _mm_set1_ps(std::numeric_limits<float>::infinity()), hi_ = _mm_set1_ps(-std::numeric_limits<float>::infinity());
+  __m128 c_lo_ = lo_, c_hi_ = hi_;
+#else
+  void add(const BvhRef& r) { b_.extend(r); }
+  RefBounds bounds() const { return b_; }
+
+ private:
+  RefBounds b_;
+#endif
+};
 
 // Which bin of `axis` a centre falls in: the mapping both binning and partitioning use.
 struct CenterBins {
@@ -55,7 +98,7 @@ std::size_t partition_refs(std::span<BvhRef> refs, const CenterBins& bins, const
                            RefBounds& left, RefBounds& right);
 
 // SAH cost of a split with the given child areas and counts, relative to the parent's area.
-inline float split_cost(const BvhBuildOptions& o, float parent_area, float left_area, std::size_t n_left,
+inline float bvh_split_cost(const BvhBuildOptions& o, float parent_area, float left_area, std::size_t n_left,
                         float right_area, std::size_t n_right) {
   return o.traversal_cost + o.intersection_cost *
                                 (left_area * static_cast<float>(n_left) + right_area * static_cast<float>(n_right)) /

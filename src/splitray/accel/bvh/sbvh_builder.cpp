@@ -3,7 +3,8 @@
 // would overlap by more than alpha times the root's area it also bins the node's box in space,
 // clipping each reference to the bins it crosses, and takes the cheaper of the two. A spatial
 // split sends each straddling reference to both sides, clipped, unless moving it whole to one
-// side is cheaper (reference unsplitting, §4.4).
+// side is cheaper (reference unsplitting, §4.4). References are split at planes in one pass
+// over the triangle's edges (triangle_split.hpp).
 #include <tbb/parallel_invoke.h>
 
 #include <algorithm>
@@ -12,7 +13,7 @@
 
 #include "splitray/accel/bvh/bvh_build.hpp"
 #include "splitray/accel/bvh/object_split.hpp"
-#include "splitray/accel/kd/clip.hpp"
+#include "splitray/accel/bvh/triangle_split.hpp"
 
 namespace splitray {
 
@@ -66,10 +67,6 @@ class SbvhBuilder {
     piece.nodes[slot] = BvhNode::make_leaf(box, first, static_cast<std::uint32_t>(piece.prims.size() - first));
   }
 
-  Aabb clip(const BvhRef& r, const Aabb& region) const {
-    return clip_triangle_bounds(tris_[r.prim], intersection(r.box, region));
-  }
-
   SpatialSplit find_spatial_split(const std::vector<BvhRef>& refs, const Aabb& box, std::uint64_t& evals) const {
     SpatialSplit best;
     const int count = std::clamp(bin_count(options_, refs.size()), 2, kMaxSpatialBins);
@@ -90,12 +87,13 @@ class SbvhBuilder {
           bins[b0].box.extend(r.box);
           continue;
         }
-        for (int b = b0; b <= b1; ++b) {  // chop the reference into the bins it crosses
-          Aabb slab = r.box;
-          if (b > b0) slab.lo[a] = bin_plane(lo, width, b);
-          if (b < b1) slab.hi[a] = bin_plane(lo, width, b + 1);
-          bins[b].box.extend(clip(r, slab));
+        Aabb rest = r.box;  // chop the reference into the bins it crosses, plane by plane
+        for (int b = b0; b < b1; ++b) {
+          Aabb part;
+          split_triangle_bounds(tris_[r.prim], rest, a, bin_plane(lo, width, b + 1), part, rest);
+          bins[b].box.extend(part);
         }
+        bins[b1].box.extend(rest);
       }
       Aabb acc;
       for (int i = count - 1; i > 0; --i) {
@@ -111,7 +109,7 @@ class SbvhBuilder {
         if (n_left == 0 || n_right == 0) continue;
         ++evals;
         const float cost =
-            split_cost(options_, parent_area, left.half_area(), n_left, right_box[i + 1].half_area(), n_right);
+            bvh_split_cost(options_, parent_area, left.half_area(), n_left, right_box[i + 1].half_area(), n_right);
         if (cost < best.cost) {
           best = {a, bin_plane(lo, width, i + 1), cost, left, right_box[i + 1], n_left, n_right};
         }
@@ -147,10 +145,8 @@ class SbvhBuilder {
           right_box.extend(r.box);
           n_left -= 1;
         } else {
-          Aabb below = r.box, above = r.box;
-          below.hi[a] = p;
-          above.lo[a] = p;
-          const Aabb lb = clip(r, below), rb = clip(r, above);
+          Aabb lb, rb;
+          split_triangle_bounds(tris_[r.prim], r.box, a, p, lb, rb);
           if (!lb.empty()) left.push_back({lb, r.prim});
           if (!rb.empty()) right.push_back({rb, r.prim});
         }

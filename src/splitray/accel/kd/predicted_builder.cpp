@@ -80,7 +80,8 @@ class PredictedBuilder {
           static_cast<float>(center + half), static_cast<float>(center));
       evals += r.evals;
       const double leaf = cost_.leaf(prims.size());
-      if (r.best.valid() && !r.at_bracket_edge && r.best.cost <= prediction->max_cost_ratio * leaf) {
+      if (r.best.valid() && !r.at_bracket_edge &&
+          r.best.cost <= prediction->max_cost_ratio * leaf) {
         axes[a] = r;
         searched[a] = true;
         record.used_prediction = true;
@@ -113,8 +114,8 @@ class PredictedBuilder {
     return axis;
   }
 
-  Built build(GoldenPrims& prims, const Aabb& cell, int depth, std::uint64_t path,
-              BumpArena* nodes, BumpArena* scratch) const {
+  Built build(GoldenPrims& prims, const Aabb& cell, int depth, std::uint64_t path, BumpArena* nodes,
+              BumpArena* scratch) const {
     Built out;
     out.node = std::make_unique<KdBuildNode>();
     const std::size_t n = prims.size();

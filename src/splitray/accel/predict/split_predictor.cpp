@@ -21,9 +21,12 @@ PredictorKind parse_predictor_kind(const std::string& name) {
 
 std::string predictor_name(PredictorKind kind) {
   switch (kind) {
-    case PredictorKind::none: return "none";
-    case PredictorKind::kalman: return "kalman";
-    case PredictorKind::wiener: return "wiener";
+    case PredictorKind::none:
+      return "none";
+    case PredictorKind::kalman:
+      return "kalman";
+    case PredictorKind::wiener:
+      return "wiener";
   }
   return "?";
 }

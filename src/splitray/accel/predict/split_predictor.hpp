@@ -32,11 +32,11 @@ struct PredictorConfig {
   PredictorKind kind = PredictorKind::kalman;
   KalmanConfig kalman;
   WienerConfig wiener;
-  double sigmas = 3;            // bracket half width = sigmas * predicted standard deviation
-  double min_half_width = 0.01; // of the cell, so that a bracket always holds a few events
-  double max_half_width = 0.2;  // wider than this, the prediction is not worth using
-  double axis_margin = 0.03;    // trust the predicted axis when the others cost this much more
-  int refresh_frames = 8;       // re-check the other axes of a node at least this often
+  double sigmas = 3;             // bracket half width = sigmas * predicted standard deviation
+  double min_half_width = 0.01;  // of the cell, so that a bracket always holds a few events
+  double max_half_width = 0.2;   // wider than this, the prediction is not worth using
+  double axis_margin = 0.03;     // trust the predicted axis when the others cost this much more
+  int refresh_frames = 8;        // re-check the other axes of a node at least this often
   // A predicted split whose cost (relative to the node's leaf cost) exceeds last frame's by
   // more than this share is a local minimum the bracket trapped: search fully instead.
   double cost_tolerance = 0.02;
@@ -44,9 +44,9 @@ struct PredictorConfig {
 
 struct SplitPrediction {
   int axis = 0;
-  double fraction = 0;    // predicted split position as a fraction of the cell on `axis`
-  double half_width = 0;  // of the bracket, in fractions of the cell
-  bool check_axes = true; // search the other axes as well (margin small or refresh due)
+  double fraction = 0;        // predicted split position as a fraction of the cell on `axis`
+  double half_width = 0;      // of the bracket, in fractions of the cell
+  bool check_axes = true;     // search the other axes as well (margin small or refresh due)
   double max_cost_ratio = 0;  // accept the bracket's best only up to this cost / leaf cost
 };
 
@@ -56,9 +56,9 @@ struct SplitObservation {
   int depth = 0;
   int axis = 0;
   double fraction = 0;
-  std::optional<double> axis_margin;     // set when all axes were searched
-  std::optional<double> predicted;       // the fraction predicted for this axis, if any
-  double cost_ratio = 0;                 // split cost / leaf cost
+  std::optional<double> axis_margin;  // set when all axes were searched
+  std::optional<double> predicted;    // the fraction predicted for this axis, if any
+  double cost_ratio = 0;              // split cost / leaf cost
 };
 
 class SplitPredictor {

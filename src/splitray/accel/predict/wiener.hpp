@@ -10,9 +10,10 @@ namespace splitray {
 inline constexpr int kWienerMaxOrder = 16;
 
 struct WienerConfig {
-  int order = 6;     // taps, at most kWienerMaxOrder
-  double step = 0.5; // mu of normalised LMS, in (0, 2)
-  double regularization = 1e-6;  // added to the input power: tiny increments must not blow up the taps
+  int order = 6;      // taps, at most kWienerMaxOrder
+  double step = 0.5;  // mu of normalised LMS, in (0, 2)
+  double regularization =
+      1e-6;  // added to the input power: tiny increments must not blow up the taps
 };
 
 class WienerPredictor {
