@@ -90,7 +90,9 @@ TEST(Animate, PredictedTreesEqualBruteOnBendingHorse) {
 
 TEST(Animate, WithoutPredictionsTheTreeIsGoldens) {
   const auto frames = bending_horse(1);
-  SplitPredictor none(PredictorConfig{PredictorKind::none});
+  PredictorConfig off;
+  off.kind = PredictorKind::none;
+  SplitPredictor none(off);
   PredictedBuildStats stats;
   const auto predicted = make_kd_predicted(frames[0], BuildConfig{}, none, stats);
   BuildConfig golden;

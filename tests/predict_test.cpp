@@ -93,7 +93,9 @@ TEST(SplitPredictor, PathsAndPredictions) {
     p.update({});
     EXPECT_FALSE(p.predict(kRootPath, 0));
   }
-  SplitPredictor none(PredictorConfig{PredictorKind::none});
+  PredictorConfig off;
+  off.kind = PredictorKind::none;
+  SplitPredictor none(off);
   SplitObservation o;
   o.path = kRootPath;
   none.update(std::span<const SplitObservation>(&o, 1));

@@ -5,12 +5,17 @@
 #if defined(__AVX512F__)
 #include <immintrin.h>
 #endif
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
 
 #include <algorithm>
+#include <cstdlib>
 #include <array>
 #include <bit>
 #include <limits>
 #include <memory>
+#include <new>
 #include <utility>
 
 #include "splitray/core/errors.hpp"
@@ -33,32 +38,27 @@ std::uint32_t ordered_bits(float f) {
   return (u & 0x80000000u) ? ~u : (u | 0x80000000u);
 }
 
-// Point indices sorted by one coordinate; stable LSD radix sort (11 + 11 + 10 bits), so equal
-// coordinates keep index order.
-std::vector<std::uint32_t> sorted_by(std::span<const Vec3> points, int axis) {
-  const std::size_t n = points.size();
-  // (key << 32 | index): one array to scatter keeps the number of write streams low.
-  std::unique_ptr<std::uint64_t[]> items(new std::uint64_t[n]), tmp(new std::uint64_t[n]);
-  std::array<std::array<std::uint32_t, 2048>, 3> hist{};
-  for (std::size_t i = 0; i < n; ++i) {
-    const std::uint32_t key = ordered_bits(points[i][axis] + 0.0f);  // -0 becomes +0
-    items[i] = (static_cast<std::uint64_t>(key) << 32) | i;
-    ++hist[0][key & 2047u];
-    ++hist[1][(key >> 11) & 2047u];
-    ++hist[2][key >> 22];
-  }
-  for (int pass = 0; pass < 3; ++pass) {
-    auto& h = hist[pass];
-    if (std::ranges::any_of(h, [&](std::uint32_t c) { return c == n; })) continue;  // one digit
-    std::uint32_t sum = 0;
-    for (auto& c : h) sum += std::exchange(c, sum);
-    const int shift = 32 + 11 * pass;
-    for (std::size_t i = 0; i < n; ++i) tmp[h[(items[i] >> shift) & 2047u]++] = items[i];
-    items.swap(tmp);
-  }
-  std::vector<std::uint32_t> order(n);
-  for (std::size_t i = 0; i < n; ++i) order[i] = static_cast<std::uint32_t>(items[i]);
-  return order;
+// Build scratch of n values, uninitialised (every slot is written before it is read). Large
+// blocks ask Linux for transparent huge pages: the builder touches ~100 bytes per point once,
+// and faulting that in 4 KiB pages costs a tenth of the build.
+struct FreeScratch {
+  void operator()(void* p) const { std::free(p); }
+};
+template <typename T>
+using Scratch = std::unique_ptr<T[], FreeScratch>;
+
+template <typename T>
+Scratch<T> scratch(std::size_t n) {
+  constexpr std::size_t kHuge = std::size_t{2} << 20;
+  const std::size_t bytes = std::max<std::size_t>(n * sizeof(T), 1);
+  const bool huge = bytes >= 4 * kHuge;
+  const std::size_t align = huge ? kHuge : alignof(std::max_align_t) * 4;
+  void* p = std::aligned_alloc(align, (bytes + align - 1) / align * align);
+  if (!p) throw std::bad_alloc();
+#if defined(__linux__)
+  if (huge) madvise(p, bytes, MADV_HUGEPAGE);
+#endif
+  return Scratch<T>(static_cast<T*>(p));
 }
 
 // The points of one node ordered by one axis, as separate arrays: the sweep then reads one
@@ -86,8 +86,8 @@ class Builder {
         expansion_(2 * radius),
         traversal_cost_(config.traversal_cost),
         point_cost_(config.point_cost),
-        coords_(new float[3 * 2 * 3 * points.size()]),  // uninitialised: every slot is written
-        ids_(new std::uint32_t[3 * 2 * points.size()]) {
+        coords_(scratch<float>(3 * 2 * 3 * points.size())),
+        ids_(scratch<std::uint32_t>(3 * 2 * points.size())) {
     // For each axis, buffer 0 starts sorted by that axis; buffer 1 receives partitions.
     tbb::parallel_invoke([&] { fill(points, 0); }, [&] { fill(points, 1); },
                          [&] { fill(points, 2); });
@@ -153,13 +153,35 @@ class Builder {
     return c;
   }
 
+  // Buffer 0 of `axis`: the points sorted by that coordinate with a stable LSD radix sort
+  // (11 + 11 + 10 bits; equal coordinates keep index order), then their coordinates.
   void fill(std::span<const Vec3> points, int axis) {
-    const std::vector<std::uint32_t> order = sorted_by(points, axis);
+    const std::size_t n = points.size();
+    // (key << 32 | index): one array to scatter keeps the number of write streams low.
+    Scratch<std::uint64_t> items = scratch<std::uint64_t>(n), tmp = scratch<std::uint64_t>(n);
+    std::array<std::array<std::uint32_t, 2048>, 3> hist{};
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::uint32_t key = ordered_bits(points[i][axis] + 0.0f);  // -0 becomes +0
+      items[i] = (static_cast<std::uint64_t>(key) << 32) | i;
+      ++hist[0][key & 2047u];
+      ++hist[1][(key >> 11) & 2047u];
+      ++hist[2][key >> 22];
+    }
+    for (int pass = 0; pass < 3; ++pass) {
+      auto& h = hist[pass];
+      if (std::ranges::any_of(h, [&](std::uint32_t c) { return c == n; })) continue;  // one digit
+      std::uint32_t sum = 0;
+      for (auto& c : h) sum += std::exchange(c, sum);
+      const int shift = 32 + 11 * pass;
+      for (std::size_t i = 0; i < n; ++i) tmp[h[(items[i] >> shift) & 2047u]++] = items[i];
+      items.swap(tmp);
+    }
     const Columns c = columns(axis, 0);
-    for (std::size_t i = 0; i < order.size(); ++i) {
-      const Vec3& p = points[order[i]];
+    for (std::size_t i = 0; i < n; ++i) {
+      const auto id = static_cast<std::uint32_t>(items[i]);
+      const Vec3& p = points[id];
       for (int m = 0; m < 3; ++m) c.c[m][i] = p[m] + 0.0f;
-      c.id[i] = order[i];
+      c.id[i] = id;
     }
   }
 
@@ -308,8 +330,8 @@ class Builder {
   std::size_t leaf_size_;
   float expansion_;  // 2 × the radius: a cell grows by it along every axis
   float traversal_cost_, point_cost_;
-  std::unique_ptr<float[]> coords_;      // [axis][buffer][coordinate][point]
-  std::unique_ptr<std::uint32_t[]> ids_;  // [axis][buffer][point]
+  Scratch<float> coords_;        // [axis][buffer][coordinate][point]
+  Scratch<std::uint32_t> ids_;  // [axis][buffer][point]
   std::vector<std::uint32_t> permutation_;
 };
 

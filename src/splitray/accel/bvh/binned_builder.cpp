@@ -45,7 +45,7 @@ class BinnedBuilder {
 
     const std::span<BvhRef> refs(refs_.data() + begin, n);
     const ObjectSplit split = find_object_split(refs, bounds, options_, evals);
-    const float leaf_cost = options_.intersection_cost * static_cast<float>(n);
+    const float leaf_cost = bvh_leaf_cost(options_, n);
     const bool small = n <= static_cast<std::size_t>(options_.max_leaf);
     if (small && (split.axis < 0 || split.cost >= leaf_cost)) return make_leaf(piece, slot, begin, end, bounds.box);
 

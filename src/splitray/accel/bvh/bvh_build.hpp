@@ -57,9 +57,10 @@ std::vector<BvhRef> make_prim_refs(std::span<const Triangle> triangles);  // who
 
 struct BvhBuildOptions {
   float traversal_cost = 15;     // SAH K_T
-  float intersection_cost = 20;  // SAH K_I
+  float intersection_cost = 20;  // SAH K_I, per block of leaf_block triangles (tested at once)
+  int leaf_block = 4;            // triangles a leaf tests together (the traversal's SIMD width)
   int min_leaf = 1;              // nodes with this many references or fewer are leaves
-  int max_leaf = 8;              // nodes with more are split whenever they can be
+  int max_leaf = 4;              // nodes with more are split whenever they can be
   int bins = 32;                 // SAH bins per axis (object and spatial splits)
   int max_depth = 64;            // at most 64 (the traversal stack)
   float sbvh_alpha = 1e-5f;      // SBVH: try spatial splits when overlap / root area > alpha

@@ -137,6 +137,7 @@ BvhBuildResult build_bvh_embree(std::span<const Triangle> triangles, std::vector
   RTCBuildArguments args = rtcDefaultBuildArguments();
   args.buildQuality = spatial ? RTC_BUILD_QUALITY_HIGH : RTC_BUILD_QUALITY_MEDIUM;
   args.maxBranchingFactor = 2;
+  args.sahBlockSize = static_cast<unsigned int>(std::max(options.leaf_block, 1));
   args.maxDepth = static_cast<unsigned int>(std::clamp(options.max_depth, 1, 64));
   args.minLeafSize = static_cast<unsigned int>(std::max(options.min_leaf, 1));
   args.maxLeafSize = static_cast<unsigned int>(std::clamp(options.max_leaf, 1, 32));

@@ -97,12 +97,19 @@ ObjectSplit find_object_split(std::span<const BvhRef> refs, const RefBounds& bou
 std::size_t partition_refs(std::span<BvhRef> refs, const CenterBins& bins, const ObjectSplit& split,
                            RefBounds& left, RefBounds& right);
 
-// SAH cost of a split with the given child areas and counts, relative to the parent's area.
+// Intersection tests of a leaf with n references: one per block of leaf_block.
+inline float leaf_tests(const BvhBuildOptions& o, std::size_t n) {
+  const auto block = static_cast<std::size_t>(std::max(o.leaf_block, 1));
+  return static_cast<float>((n + block - 1) / block);
+}
+
+// SAH cost of a leaf, and of a split with the given child areas and counts (relative to the
+// parent's area).
+inline float bvh_leaf_cost(const BvhBuildOptions& o, std::size_t n) { return o.intersection_cost * leaf_tests(o, n); }
 inline float bvh_split_cost(const BvhBuildOptions& o, float parent_area, float left_area, std::size_t n_left,
-                        float right_area, std::size_t n_right) {
-  return o.traversal_cost + o.intersection_cost *
-                                (left_area * static_cast<float>(n_left) + right_area * static_cast<float>(n_right)) /
-                                parent_area;
+                            float right_area, std::size_t n_right) {
+  return o.traversal_cost +
+         o.intersection_cost * (left_area * leaf_tests(o, n_left) + right_area * leaf_tests(o, n_right)) / parent_area;
 }
 
 }  // namespace splitray

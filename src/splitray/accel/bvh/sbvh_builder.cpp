@@ -169,7 +169,7 @@ class SbvhBuilder {
       spatial = find_spatial_split(refs, bounds.box, evals);
     const float best_cost = std::min(object.axis >= 0 ? object.cost : std::numeric_limits<float>::infinity(),
                                      spatial.cost);
-    const float leaf_cost = options_.intersection_cost * static_cast<float>(n);
+    const float leaf_cost = bvh_leaf_cost(options_, n);
     if (n <= static_cast<std::size_t>(options_.max_leaf) && !(best_cost < leaf_cost))
       return make_leaf(piece, slot, refs, bounds.box);
 

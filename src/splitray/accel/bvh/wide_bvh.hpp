@@ -2,7 +2,9 @@
 // The traversal layout of a Bvh: the binary tree collapsed into nodes of up to eight children
 // whose boxes are stored axis by axis (32 bytes per child), so that one SIMD slab test checks
 // all eight and a ray needs a third of the dependent memory loads of the binary tree.
-// Collapsing keeps every binary leaf, so the references and the answers are the same.
+// Collapsing keeps every binary leaf; a leaf's triangles are stored as blocks of four in
+// SIMD rows, tested at once by the watertight test with the very same operations (so the
+// answers are bit-identical to testing them one by one).
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -22,25 +24,42 @@ struct alignas(64) WideNode {
 };
 static_assert(sizeof(WideNode) == 256);
 
+inline constexpr int kBlockWidth = 4;
+
+// Four triangles in rows: v[0..2] = v0.xyz, v[3..5] = v1.xyz, v[6..8] = v2.xyz, one per lane.
+// A leaf's last block repeats its last triangle in unused lanes.
+struct alignas(32) TriangleBlock {
+  float v[9][kBlockWidth];
+  std::uint32_t id[kBlockWidth];
+  Triangle triangle(int lane) const {
+    return {{v[0][lane], v[1][lane], v[2][lane]}, {v[3][lane], v[4][lane], v[5][lane]}, {v[6][lane], v[7][lane], v[8][lane]}};
+  }
+  void set(int lane, const Triangle& t, std::uint32_t prim);
+};
+static_assert(sizeof(TriangleBlock) == 160);
+
 class WideBvh {
  public:
-  // Collapses `nodes` (root at 0, children side by side), greedily opening the child with the
-  // largest surface area until a node has eight children.
-  void collapse(std::span<const BvhNode> nodes);
-  // Copies the binary tree's boxes again (after a refit: same topology).
-  void update_boxes(std::span<const BvhNode> nodes);
+  // Collapses `nodes` (root at 0, children side by side; leaves index `ids`), greedily
+  // opening the child with the largest surface area until a node has eight children.
+  void collapse(std::span<const BvhNode> nodes, std::span<const std::uint32_t> ids, std::span<const Triangle> triangles);
+  // After a refit of the binary tree (same topology): its boxes and the moved triangles.
+  void refit(std::span<const BvhNode> nodes, std::span<const Triangle> triangles);
 
   // Closest hit (hit.t = tmax on entry) or any hit, as Bvh::intersect / occluded.
-  void intersect(const Ray& ray, const Aabb& scene, float magnitude, std::span<const Triangle> tris,
-                 std::span<const std::uint32_t> ids, Hit& hit) const;
-  bool occluded(const Ray& ray, const Aabb& scene, float magnitude, std::span<const Triangle> tris) const;
+  void intersect(const Ray& ray, const Aabb& scene, float magnitude, Hit& hit) const;
+  bool occluded(const Ray& ray, const Aabb& scene, float magnitude) const;
 
-  std::size_t bytes() const { return nodes_.size() * sizeof(WideNode) + source_.size() * sizeof(std::uint32_t); }
+  std::size_t bytes() const {
+    return nodes_.size() * sizeof(WideNode) + source_.size() * sizeof(std::uint32_t) +
+           blocks_.size() * sizeof(TriangleBlock);
+  }
   std::span<const WideNode> nodes() const { return nodes_; }
 
  private:
   std::vector<WideNode> nodes_;           // root at 0
   std::vector<std::uint32_t> source_;     // binary node of each slot (kInvalidId: empty)
+  std::vector<TriangleBlock> blocks_;     // leaf triangles, leaf after leaf
 };
 
 }  // namespace splitray
