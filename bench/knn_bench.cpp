@@ -1,13 +1,12 @@
 #include "knn_bench.hpp"
 
 #include <fmt/core.h>
+#include <sys/resource.h>
 
 #include <algorithm>
 #include <filesystem>
 #include <iostream>
 #include <map>
-
-#include <sys/resource.h>
 
 #include "bench_meshes.hpp"
 #include "machine.hpp"
@@ -72,8 +71,9 @@ std::vector<KnnMesh> knn_meshes(const KnnBenchOptions& options, std::vector<std:
     const auto it = named.find(name);
     if (it == named.end()) {
       if (!std::filesystem::exists(name))
-        throw Error("--meshes", "'" + name + "' is neither dragon, sibenik, cat, horse, "
-                                "dragon-vendored nor an existing file");
+        throw Error("--meshes", "'" + name +
+                                    "' is neither dragon, sibenik, cat, horse, "
+                                    "dragon-vendored nor an existing file");
       meshes.push_back({std::filesystem::path(name).filename().string(), name});
     } else if (it->second.empty()) {
       notes.push_back(name + ": shared data absent, skipped");
@@ -130,16 +130,22 @@ json run_mesh(const KnnMesh& mesh, const KnnBenchOptions& options, std::size_t p
               std::size_t query_count, int runs, bool& all_agree) {
   const Timer load_timer;
   Mesh geometry = load_mesh(mesh.path);
-  const std::vector<Vec3> points = sample_surface(geometry, points_count, options.seed, kPointStream);
-  const std::vector<Vec3> queries = sample_surface(geometry, query_count, options.seed, kQueryStream);
+  const std::vector<Vec3> points =
+      sample_surface(geometry, points_count, options.seed, kPointStream);
+  const std::vector<Vec3> queries =
+      sample_surface(geometry, query_count, options.seed, kQueryStream);
   Aabb box;
   for (const Vec3& p : points) box.extend(p);
   const float diagonal = length(box.extent());
   const float radius = static_cast<float>(options.radius_fraction) * diagonal;
-  json out = {{"mesh", mesh.name},        {"path", mesh.path},
-              {"triangles", geometry.triangle_count()}, {"points", points.size()},
-              {"queries", queries.size()}, {"diagonal", diagonal},
-              {"radius", radius},         {"load_and_sample_ms", load_timer.ms()}};
+  json out = {{"mesh", mesh.name},
+              {"path", mesh.path},
+              {"triangles", geometry.triangle_count()},
+              {"points", points.size()},
+              {"queries", queries.size()},
+              {"diagonal", diagonal},
+              {"radius", radius},
+              {"load_and_sample_ms", load_timer.ms()}};
   geometry = Mesh{};
 
   json structures = json::object();
@@ -155,16 +161,18 @@ json run_mesh(const KnnMesh& mesh, const KnnBenchOptions& options, std::size_t p
       build_cpu_ms.push_back(cpu_ms() - cpu_start);
       build_ms.push_back(index->build_ms());
     }
-    json row = {{"builder", config.builder},
-                {"query_order", is_ours(config.builder) || config.coherent_peers ? "morton" : "given"},
-                {"build_ms", median(build_ms)},
-                {"build_runs_ms", build_ms},
-                {"build_cpu_ms", median(build_cpu_ms)}};
+    json row = {
+        {"builder", config.builder},
+        {"query_order", is_ours(config.builder) || config.coherent_peers ? "morton" : "given"},
+        {"build_ms", median(build_ms)},
+        {"build_runs_ms", build_ms},
+        {"build_cpu_ms", median(build_cpu_ms)}};
     if (const PointTree* tree = index->tree()) {
       const PointTreeStats stats = tree->stats();
-      row["tree"] = {{"nodes", stats.nodes}, {"leaves", stats.leaves}, {"max_depth", stats.max_depth},
-                     {"mean_leaf_points", stats.mean_leaf_points}, {"vvh_cost", stats.vvh_cost},
-                     {"vvh_radius", stats.radius}, {"bytes", stats.bytes}};
+      row["tree"] = {{"nodes", stats.nodes},         {"leaves", stats.leaves},
+                     {"max_depth", stats.max_depth}, {"mean_leaf_points", stats.mean_leaf_points},
+                     {"vvh_cost", stats.vvh_cost},   {"vvh_radius", stats.radius},
+                     {"bytes", stats.bytes}};
     }
     for (int k : options.ks)
       row["k" + std::to_string(k)] =
@@ -179,7 +187,8 @@ json run_mesh(const KnnMesh& mesh, const KnnBenchOptions& options, std::size_t p
       radius_index = make_neighbor_index(points, radius_config);
     }
     const NeighborIndex& searcher = radius_index ? *radius_index : *index;
-    row["radius"] = measure(runs, queries.size(), [&] { return summarize(searcher.radius(queries, radius)); });
+    row["radius"] =
+        measure(runs, queries.size(), [&] { return summarize(searcher.radius(queries, radius)); });
     row["radius"]["build_ms"] = searcher.build_ms();
     structures[structure] = row;
   }
@@ -203,8 +212,8 @@ json run_mesh(const KnnMesh& mesh, const KnnBenchOptions& options, std::size_t p
     all_agree = all_agree && agree;
   }
   out["agreement"] = agreement;
-  out["mean_radius_neighbors"] =
-      structures[reference]["radius"]["neighbors"].get<double>() / static_cast<double>(queries.size());
+  out["mean_radius_neighbors"] = structures[reference]["radius"]["neighbors"].get<double>() /
+                                 static_cast<double>(queries.size());
 
   // Ratios to the peers as their users call them, and the issue's targets for ours.
   const auto has = [&](const std::string& s) { return structures.contains(s); };
@@ -212,12 +221,14 @@ json run_mesh(const KnnMesh& mesh, const KnnBenchOptions& options, std::size_t p
     json ratios = json::object();
     for (const std::string peer : {"nanoflann", "flann"}) {
       if (!has(peer)) continue;
-      ratios["build_vs_" + peer] = row["build_ms"].get<double>() / structures[peer]["build_ms"].get<double>();
+      ratios["build_vs_" + peer] =
+          row["build_ms"].get<double>() / structures[peer]["build_ms"].get<double>();
       ratios["build_cpu_vs_" + peer] =
           row["build_cpu_ms"].get<double>() / structures[peer]["build_cpu_ms"].get<double>();
       for (const std::string& search : searches) {
-        ratios[search + "_speedup_vs_" + peer] = row[search]["queries_per_s"].get<double>() /
-                                                 structures[peer][search]["queries_per_s"].get<double>();
+        ratios[search + "_speedup_vs_" + peer] =
+            row[search]["queries_per_s"].get<double>() /
+            structures[peer][search]["queries_per_s"].get<double>();
         ratios[search + "_cpu_speedup_vs_" + peer] =
             row[search]["queries_per_cpu_s"].get<double>() /
             structures[peer][search]["queries_per_cpu_s"].get<double>();
@@ -227,9 +238,11 @@ json run_mesh(const KnnMesh& mesh, const KnnBenchOptions& options, std::size_t p
       for (const std::string& search : searches) {
         const double best = std::max(structures["nanoflann"][search]["queries_per_s"].get<double>(),
                                      structures["flann"][search]["queries_per_s"].get<double>());
-        ratios[search + "_speedup_vs_faster_peer"] = row[search]["queries_per_s"].get<double>() / best;
-        const double best_cpu = std::max(structures["nanoflann"][search]["queries_per_cpu_s"].get<double>(),
-                                         structures["flann"][search]["queries_per_cpu_s"].get<double>());
+        ratios[search + "_speedup_vs_faster_peer"] =
+            row[search]["queries_per_s"].get<double>() / best;
+        const double best_cpu =
+            std::max(structures["nanoflann"][search]["queries_per_cpu_s"].get<double>(),
+                     structures["flann"][search]["queries_per_cpu_s"].get<double>());
         ratios[search + "_cpu_speedup_vs_faster_peer"] =
             row[search]["queries_per_cpu_s"].get<double>() / best_cpu;
       }
@@ -256,12 +269,17 @@ std::string fmt_ratio(const json& ratios, const std::string& key) {
 }  // namespace
 
 void add_knn_bench_options(CLI::App& command, KnnBenchOptions& options) {
-  command.add_option("--runs", options.runs,
-                     "Timed runs per measurement; the median is reported (default 5, --quick 1)")
+  command
+      .add_option("--runs", options.runs,
+                  "Timed runs per measurement; the median is reported (default 5, --quick 1)")
       ->check(CLI::PositiveNumber);
-  command.add_option("--points", options.points, "Surface samples per mesh (default 1000000, --quick 100000)")
+  command
+      .add_option("--points", options.points,
+                  "Surface samples per mesh (default 1000000, --quick 100000)")
       ->check(CLI::PositiveNumber);
-  command.add_option("--queries", options.queries, "Queries per mesh (default 1000000, --quick 100000)")
+  command
+      .add_option("--queries", options.queries,
+                  "Queries per mesh (default 1000000, --quick 100000)")
       ->check(CLI::PositiveNumber);
   command.add_option("--meshes", options.meshes,
                      "dragon, sibenik, cat (../shared/data), horse, dragon-vendored, or mesh files "
@@ -270,12 +288,14 @@ void add_knn_bench_options(CLI::App& command, KnnBenchOptions& options) {
                      "vvh, sah, median, nanoflann, flann, nanoflann+order, flann+order (the +order "
                      "peers get the queries in our Morton order)");
   command.add_option("--ks", options.ks, "k of the k-nearest searches")->check(CLI::PositiveNumber);
-  command.add_option("--radius-fraction", options.radius_fraction,
-                     "Radius of the radius search as a share of the bounding-box diagonal")
+  command
+      .add_option("--radius-fraction", options.radius_fraction,
+                  "Radius of the radius search as a share of the bounding-box diagonal")
       ->check(CLI::PositiveNumber);
   command.add_option("--leaf-size", options.leaf_size, "Points per leaf of every tree")
       ->check(CLI::Range(1, 1 << 20));
-  command.add_flag("--quick", options.quick, "Smoke test: vendored meshes, 100k points and queries, 1 run");
+  command.add_flag("--quick", options.quick,
+                   "Smoke test: vendored meshes, 100k points and queries, 1 run");
   command.add_option("--threads", options.threads, "Worker threads (0 = all cores)")
       ->check(CLI::NonNegativeNumber);
   command.add_option("--seed", options.seed, "Seed of the points and queries");
@@ -294,22 +314,27 @@ json run_knn_bench_report(const KnnBenchOptions& options) {
   const ThreadLimit limit(options.threads);
   const int runs = options.runs > 0 ? options.runs : (options.quick ? 1 : 5);
   const std::size_t points = options.points ? options.points : (options.quick ? 100000 : 1000000);
-  const std::size_t queries = options.queries ? options.queries : (options.quick ? 100000 : 1000000);
+  const std::size_t queries =
+      options.queries ? options.queries : (options.quick ? 100000 : 1000000);
   std::vector<std::string> notes;
   const std::vector<KnnMesh> meshes = knn_meshes(options, notes);
 
   json report;
   report["benchmark"] = "knn";
   report["machine"] = machine_json(options.threads);
-  report["settings"] = {{"points", points},       {"queries", queries},
-                        {"runs", runs},           {"ks", options.ks},
+  report["settings"] = {{"points", points},
+                        {"queries", queries},
+                        {"runs", runs},
+                        {"ks", options.ks},
                         {"radius_fraction", options.radius_fraction},
-                        {"leaf_size", options.leaf_size}, {"seed", options.seed},
+                        {"leaf_size", options.leaf_size},
+                        {"seed", options.seed},
                         {"structures", options.structures},
-                        {"note", "build: ours in parallel, nanoflann 1.4 and FLANN 1.9 build on one "
-                                 "thread (they have no parallel build); queries: everyone on all "
-                                 "threads in fixed chunks; ours process queries in Morton order, the "
-                                 "plain peers in the given order, the +order peers in ours"}};
+                        {"note",
+                         "build: ours in parallel, nanoflann 1.4 and FLANN 1.9 build on one "
+                         "thread (they have no parallel build); queries: everyone on all "
+                         "threads in fixed chunks; ours process queries in Morton order, the "
+                         "plain peers in the given order, the +order peers in ours"}};
   json results = json::array();
   bool all_agree = true;
   for (const KnnMesh& mesh : meshes)
@@ -330,18 +355,21 @@ std::string knn_markdown_report(const json& report) {
       "agree across all structures: {}.\n\n",
       s["points"].get<std::size_t>(), s["queries"].get<std::size_t>(), s["leaf_size"].get<int>(),
       s["runs"].get<int>(), report["machine"]["cpu"].get<std::string>(),
-      report["machine"]["threads"].get<int>(), report["machine"]["load_average_start"].get<double>(),
-      report["machine"]["load_average_end"].get<double>(), report["all_agree"].get<bool>() ? "yes" : "NO");
+      report["machine"]["threads"].get<int>(),
+      report["machine"]["load_average_start"].get<double>(),
+      report["machine"]["load_average_end"].get<double>(),
+      report["all_agree"].get<bool>() ? "yes" : "NO");
   md += s["note"].get<std::string>() + ".\n\n";
   std::vector<std::string> searches;
   for (int k : s["ks"]) searches.push_back("k" + std::to_string(k));
   searches.push_back("radius");
   for (const json& mesh : report["meshes"]) {
-    md += fmt::format("## {} ({} triangles; radius {:.4g} = {:.1f}% of the diagonal, {:.1f} neighbours "
-                      "per query)\n\n",
-                      mesh["mesh"].get<std::string>(), mesh["triangles"].get<std::size_t>(),
-                      mesh["radius"].get<double>(), 100 * s["radius_fraction"].get<double>(),
-                      mesh["mean_radius_neighbors"].get<double>());
+    md += fmt::format(
+        "## {} ({} triangles; radius {:.4g} = {:.1f}% of the diagonal, {:.1f} neighbours "
+        "per query)\n\n",
+        mesh["mesh"].get<std::string>(), mesh["triangles"].get<std::size_t>(),
+        mesh["radius"].get<double>(), 100 * s["radius_fraction"].get<double>(),
+        mesh["mean_radius_neighbors"].get<double>());
     md += "| structure | build ms | × nanoflann | × FLANN |";
     for (const std::string& search : searches) md += fmt::format(" {} Mq/s | speedup |", search);
     md += "\n|---|---:|---:|---:|";
@@ -349,15 +377,17 @@ std::string knn_markdown_report(const json& report) {
     md += "\n";
     for (const auto& [name, row] : mesh["structures"].items()) {
       const json& ratios = row["ratios"];
-      md += fmt::format("| {} | {:.1f} | {} | {} |", name, row["build_ms"].get<double>(),
-                        fmt_ratio(ratios, "build_vs_nanoflann"), fmt_ratio(ratios, "build_vs_flann"));
+      md +=
+          fmt::format("| {} | {:.1f} | {} | {} |", name, row["build_ms"].get<double>(),
+                      fmt_ratio(ratios, "build_vs_nanoflann"), fmt_ratio(ratios, "build_vs_flann"));
       for (const std::string& search : searches)
         md += fmt::format(" {:.2f} | {} |", row[search]["queries_per_s"].get<double>() / 1e6,
                           fmt_ratio(ratios, search + "_speedup_vs_faster_peer"));
       md += "\n";
     }
-    md += "\nCPU time (all threads; what the work costs when the machine is shared):\n\n"
-          "| structure | build CPU ms | × nanoflann |";
+    md +=
+        "\nCPU time (all threads; what the work costs when the machine is shared):\n\n"
+        "| structure | build CPU ms | × nanoflann |";
     for (const std::string& search : searches) md += fmt::format(" {} speedup |", search);
     md += "\n|---|---:|---:|";
     for (std::size_t i = 0; i < searches.size(); ++i) md += "---:|";
@@ -376,9 +406,10 @@ std::string knn_markdown_report(const json& report) {
       md += fmt::format(" {} {}", search, agree.get<bool>() ? "yes" : "NO");
     md += ".\n\n";
   }
-  md += "## Targets of issue 6 (ours against the faster peer in the given order)\n\n"
-        "| mesh | structure | build ≤ 1.0× nanoflann | k=1 ≥ 1.5× | k=8 ≥ 1.5× | radius ≥ 1.2× |\n"
-        "|---|---|---|---|---|---|\n";
+  md +=
+      "## Targets of issue 6 (ours against the faster peer in the given order)\n\n"
+      "| mesh | structure | build ≤ 1.0× nanoflann | k=1 ≥ 1.5× | k=8 ≥ 1.5× | radius ≥ 1.2× |\n"
+      "|---|---|---|---|---|---|\n";
   for (const json& mesh : report["meshes"]) {
     for (const auto& [name, row] : mesh["structures"].items()) {
       if (!row.contains("targets")) continue;
@@ -386,7 +417,8 @@ std::string knn_markdown_report(const json& report) {
       const json& r = row["ratios"];
       const auto cell = [&](const std::string& target, const std::string& ratio) {
         if (!t.contains(target)) return std::string("–");
-        return fmt::format("{} ({:.2f}×)", t[target].get<bool>() ? "met" : "missed", r[ratio].get<double>());
+        return fmt::format("{} ({:.2f}×)", t[target].get<bool>() ? "met" : "missed",
+                           r[ratio].get<double>());
       };
       md += fmt::format("| {} | {} | {} | {} | {} | {} |\n", mesh["mesh"].get<std::string>(), name,
                         cell("build_le_1.0x_nanoflann", "build_vs_nanoflann"),
@@ -403,8 +435,10 @@ int run_knn_bench(const KnnBenchOptions& options) {
   const json report = run_knn_bench_report(options);
   const std::string markdown = knn_markdown_report(report);
   if (!options.json_path.empty()) write_file_atomically(options.json_path, report.dump(2) + "\n");
-  if (!options.markdown_path.empty()) write_file_atomically(options.markdown_path, markdown);
-  else std::cout << markdown;
+  if (!options.markdown_path.empty())
+    write_file_atomically(options.markdown_path, markdown);
+  else
+    std::cout << markdown;
   return report["all_agree"].get<bool>() ? 0 : 1;
 }
 

@@ -5,28 +5,27 @@
 // points and queries (medians of several runs), with answers checked against each other.
 // Shared by `splitray bench knn` and `splitray_bench knn`.
 #include <CLI/CLI.hpp>
-#include <nlohmann/json.hpp>
-
 #include <cstdint>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
 namespace splitray::bench {
 
 struct KnnBenchOptions {
-  int runs = 0;                      // timed runs per measurement (median); 0 = 5 (quick: 1)
-  std::size_t points = 0;            // surface samples per mesh; 0 = 1M (quick: 100k)
-  std::size_t queries = 0;           // 0 = 1M (quick: 100k)
-  std::vector<std::string> meshes;   // names (dragon, sibenik, cat, horse) or files; empty = default
+  int runs = 0;                     // timed runs per measurement (median); 0 = 5 (quick: 1)
+  std::size_t points = 0;           // surface samples per mesh; 0 = 1M (quick: 100k)
+  std::size_t queries = 0;          // 0 = 1M (quick: 100k)
+  std::vector<std::string> meshes;  // names (dragon, sibenik, cat, horse) or files; empty = default
   // Ours: vvh, sah, median. Peers: nanoflann, flann (queries in the caller's order, as their
   // users call them) and nanoflann+order, flann+order (in our Morton order, for comparison).
-  std::vector<std::string> structures = {"vvh", "median", "nanoflann", "flann", "nanoflann+order",
-                                         "flann+order"};
+  std::vector<std::string> structures = {"vvh",   "median",          "nanoflann",
+                                         "flann", "nanoflann+order", "flann+order"};
   std::vector<int> ks = {1, 8, 16};
-  double radius_fraction = 0.005;    // radius search: this share of the bounding-box diagonal
-  int leaf_size = 10;                // every tree, ours and the peers'
-  bool quick = false;                // smoke test: vendored meshes, 100k points, 1 run
-  int threads = 0;                   // 0 = all cores
+  double radius_fraction = 0.005;  // radius search: this share of the bounding-box diagonal
+  int leaf_size = 10;              // every tree, ours and the peers'
+  bool quick = false;              // smoke test: vendored meshes, 100k points, 1 run
+  int threads = 0;                 // 0 = all cores
   std::uint64_t seed = 1;
   std::string json_path, markdown_path;
 };

@@ -82,7 +82,8 @@ void expect_same_radius(const RadiusResult& expected, const RadiusResult& actual
 }
 
 // Distances agree rank by rank (other libraries may order tied indices differently).
-void expect_same_distances(const KnnResult& expected, const KnnResult& actual, const std::string& what) {
+void expect_same_distances(const KnnResult& expected, const KnnResult& actual,
+                           const std::string& what) {
   ASSERT_EQ(expected.distances.size(), actual.distances.size()) << what;
   std::size_t mismatches = 0;
   for (std::size_t i = 0; i < expected.distances.size(); ++i)
@@ -159,7 +160,8 @@ TEST(KnnTest, SingleQueriesMatchTheBatch) {
     std::vector<float> within_distances;
     tree.radius(set.queries[q], r, within, within_distances);
     EXPECT_TRUE(std::ranges::equal(within, radius_batch.indices_of(q))) << "query " << q;
-    EXPECT_TRUE(std::ranges::equal(within_distances, radius_batch.distances_of(q))) << "query " << q;
+    EXPECT_TRUE(std::ranges::equal(within_distances, radius_batch.distances_of(q)))
+        << "query " << q;
   }
 }
 
@@ -173,9 +175,11 @@ TEST(KnnTest, NanoflannAndFlannEqualBruteForceInDistances) {
   for (float r : radii) within.push_back(brute_force_radius(set.points, set.queries, r));
   for (const std::string name : {"nanoflann", "flann"}) {
     for (bool coherent : {false, true}) {
-      const auto index = make_neighbor_index(set.points, {.builder = name, .coherent_peers = coherent});
+      const auto index =
+          make_neighbor_index(set.points, {.builder = name, .coherent_peers = coherent});
       for (std::size_t i = 0; i < ks.size(); ++i)
-        expect_same_distances(knn[i], index->knn(set.queries, ks[i]), name + " k=" + std::to_string(ks[i]));
+        expect_same_distances(knn[i], index->knn(set.queries, ks[i]),
+                              name + " k=" + std::to_string(ks[i]));
       for (std::size_t i = 0; i < radii.size(); ++i) {
         const RadiusResult& expected = within[i];
         const RadiusResult actual = index->radius(set.queries, radii[i]);
@@ -184,7 +188,8 @@ TEST(KnnTest, NanoflannAndFlannEqualBruteForceInDistances) {
         // Ties aside, the same points: the index sets agree per query.
         for (std::size_t q = 0; q < expected.queries(); ++q) {
           const auto e = expected.indices_of(q), a = actual.indices_of(q);
-          ASSERT_EQ(std::set<std::uint32_t>(e.begin(), e.end()), std::set<std::uint32_t>(a.begin(), a.end()))
+          ASSERT_EQ(std::set<std::uint32_t>(e.begin(), e.end()),
+                    std::set<std::uint32_t>(a.begin(), a.end()))
               << name << " query " << q;
         }
       }
@@ -301,7 +306,8 @@ TEST(KnnTest, PointInLeafFindsThePointsOwnLeaf) {
       const auto leaf = tree.leaf_points(set.points[i]);
       EXPECT_EQ(leaf.size(), populations[i]);
       // The point itself, or an identical one (duplicates share a leaf).
-      EXPECT_TRUE(std::ranges::any_of(leaf, [&](std::uint32_t j) { return set.points[j] == set.points[i]; }))
+      EXPECT_TRUE(std::ranges::any_of(
+          leaf, [&](std::uint32_t j) { return set.points[j] == set.points[i]; }))
           << builder << " point " << i;
     }
   }
@@ -314,7 +320,8 @@ TEST(KnnTest, DegenerateInputs) {
   for (int i = 0; i < 40; ++i)
     for (int j = 0; j < 40; ++j) plane.push_back({static_cast<float>(i), static_cast<float>(j), 0});
   for (int i = 0; i < 500; ++i) line.push_back({0, static_cast<float>(i % 250) * 0.5f, 0});
-  const std::vector<Vec3> queries{Vec3(1, 2, 3), Vec3(0, 0, 0), Vec3(10.5f, 3.25f, 1), Vec3(-5, 100, 2)};
+  const std::vector<Vec3> queries{Vec3(1, 2, 3), Vec3(0, 0, 0), Vec3(10.5f, 3.25f, 1),
+                                  Vec3(-5, 100, 2)};
   for (const std::vector<Vec3>* points : {&same, &one, &plane, &line}) {
     for (const std::string& builder : kOurBuilders) {
       const PointTree tree(*points, {.builder = builder, .leaf_size = 2});
@@ -360,24 +367,33 @@ TEST(KnnTest, BadInputIsAClearError) {
             std::string::npos);
   EXPECT_NE(message([&] { tree.knn(queries, 0); }).find("at least 1"), std::string::npos);
   for (const std::string& name : neighbor_index_names())
-    EXPECT_NE(message([&] { make_neighbor_index(points, {.builder = name})->knn(queries, 4); })
-                  .find("exceeds the number of points"),
+    EXPECT_NE(message([&] {
+                make_neighbor_index(points, {.builder = name})->knn(queries, 4);
+              }).find("exceeds the number of points"),
               std::string::npos)
         << name;
   EXPECT_NE(message([&] { tree.radius(queries, -1.0f); }).find("radius"), std::string::npos);
-  EXPECT_NE(message([&] { tree.radius(queries, std::numeric_limits<float>::quiet_NaN()); }).find("radius"),
+  EXPECT_NE(message([&] {
+              tree.radius(queries, std::numeric_limits<float>::quiet_NaN());
+            }).find("radius"),
             std::string::npos);
-  const std::vector<Vec3> nan_point{Vec3(0, 0, 0), Vec3(std::numeric_limits<float>::quiet_NaN(), 0, 0)};
+  const std::vector<Vec3> nan_point{Vec3(0, 0, 0),
+                                    Vec3(std::numeric_limits<float>::quiet_NaN(), 0, 0)};
   EXPECT_NE(message([&] { PointTree t(nan_point); }).find("point 1"), std::string::npos);
-  EXPECT_NE(message([&] { PointTree t(points, {.builder = "octree"}); }).find("octree"), std::string::npos);
+  EXPECT_NE(message([&] { PointTree t(points, {.builder = "octree"}); }).find("octree"),
+            std::string::npos);
   EXPECT_NE(message([&] { make_neighbor_index(points, {.builder = "octree"}); }).find("octree"),
             std::string::npos);
-  EXPECT_NE(message([&] { PointTree t(points, {.leaf_size = 0}); }).find("leaf size"), std::string::npos);
-  const std::vector<Vec3> bad_queries{Vec3(0, 0, 0), Vec3(0, std::numeric_limits<float>::infinity(), 0)};
+  EXPECT_NE(message([&] { PointTree t(points, {.leaf_size = 0}); }).find("leaf size"),
+            std::string::npos);
+  const std::vector<Vec3> bad_queries{Vec3(0, 0, 0),
+                                      Vec3(0, std::numeric_limits<float>::infinity(), 0)};
   for (const std::string& name : neighbor_index_names()) {
     const auto index = make_neighbor_index(points, {.builder = name});
-    EXPECT_NE(message([&] { index->knn(bad_queries, 1); }).find("query 1"), std::string::npos) << name;
-    EXPECT_NE(message([&] { index->radius(bad_queries, 1); }).find("query 1"), std::string::npos) << name;
+    EXPECT_NE(message([&] { index->knn(bad_queries, 1); }).find("query 1"), std::string::npos)
+        << name;
+    EXPECT_NE(message([&] { index->radius(bad_queries, 1); }).find("query 1"), std::string::npos)
+        << name;
   }
 }
 
@@ -419,7 +435,8 @@ TEST(KnnTest, RealSharedMeshEqualsBruteForce) {
       expect_same_knn(brute_force_knn(set.points, set.queries, k), tree.knn(set.queries, k),
                       builder + " k=" + std::to_string(k));
     const float r = 0.01f * set.diagonal;
-    expect_same_radius(brute_force_radius(set.points, set.queries, r), tree.radius(set.queries, r), builder);
+    expect_same_radius(brute_force_radius(set.points, set.queries, r), tree.radius(set.queries, r),
+                       builder);
   }
 }
 
@@ -454,18 +471,20 @@ TEST(KnnTest, PointFilesLoad) {
   EXPECT_EQ(load_points((dir / "a.xyz").string()), expected);
   EXPECT_TRUE(is_point_file((dir / "a.xyz").string()));
 
-  write_bytes(dir / "ascii.ply",
-              "ply\nformat ascii 1.0\ncomment hi\nelement vertex 3\nproperty float x\nproperty float y\n"
-              "property float z\nproperty uchar red\nend_header\n1 2 3 255\n-4.5 0.25 1e-3 0\n7 8 9 1\n");
+  write_bytes(
+      dir / "ascii.ply",
+      "ply\nformat ascii 1.0\ncomment hi\nelement vertex 3\nproperty float x\nproperty float y\n"
+      "property float z\nproperty uchar red\nend_header\n1 2 3 255\n-4.5 0.25 1e-3 0\n7 8 9 1\n");
   EXPECT_EQ(load_points((dir / "ascii.ply").string()), expected);
   EXPECT_TRUE(is_point_file((dir / "ascii.ply").string()));
 
   for (bool big : {false, true}) {
     // An element before the vertices (with a list) and doubles in y order z, y, x.
-    std::string bytes = std::string("ply\nformat ") + (big ? "binary_big_endian" : "binary_little_endian") +
-                        " 1.0\nelement camera 1\nproperty list uchar int ids\nelement vertex 3\n"
-                        "property double z\nproperty int tag\nproperty double y\nproperty double x\n"
-                        "element face 0\nproperty list uchar int vertex_indices\nend_header\n";
+    std::string bytes =
+        std::string("ply\nformat ") + (big ? "binary_big_endian" : "binary_little_endian") +
+        " 1.0\nelement camera 1\nproperty list uchar int ids\nelement vertex 3\n"
+        "property double z\nproperty int tag\nproperty double y\nproperty double x\n"
+        "element face 0\nproperty list uchar int vertex_indices\nend_header\n";
     append<std::uint8_t>(bytes, 2, big);
     append<std::int32_t>(bytes, 11, big);
     append<std::int32_t>(bytes, 12, big);
@@ -480,10 +499,11 @@ TEST(KnnTest, PointFilesLoad) {
     EXPECT_TRUE(is_point_file((dir / "binary.ply").string()));
   }
 
-  write_bytes(dir / "mesh.ply",
-              "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
-              "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
-              "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+  write_bytes(
+      dir / "mesh.ply",
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+      "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+      "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
   EXPECT_FALSE(is_point_file((dir / "mesh.ply").string()));  // a mesh: sampled, not read as points
   const PointInput input = load_point_input((dir / "mesh.ply").string(), 500, 1);
   EXPECT_TRUE(input.mesh.has_value());
@@ -497,7 +517,8 @@ TEST(KnnTest, PointFilesLoad) {
 
 TEST(KnnTest, BrokenPointFilesAreClearErrors) {
   const auto dir = test::temp_dir("knn_bad_points");
-  const auto check = [&](const std::string& name, const std::string& bytes, const std::string& expected) {
+  const auto check = [&](const std::string& name, const std::string& bytes,
+                         const std::string& expected) {
     const std::string path = (dir / name).string();
     write_bytes(path, bytes);
     const std::string message = error_of(path);
@@ -516,33 +537,41 @@ TEST(KnnTest, BrokenPointFilesAreClearErrors) {
       "ply\nformat binary_little_endian 1.0\nelement vertex 1000000000\nproperty float x\n"
       "property float y\nproperty float z\nend_header\n";
   check("huge.ply", header + std::string(24, '\0'), "more than the file holds");
-  check("truncated.ply",
-        "ply\nformat binary_little_endian 1.0\nelement vertex 2\nproperty float x\nproperty float y\n"
-        "property float z\nend_header\n" + std::string(20, '\0'),
-        "more than the file holds");
+  check(
+      "truncated.ply",
+      "ply\nformat binary_little_endian 1.0\nelement vertex 2\nproperty float x\nproperty float y\n"
+      "property float z\nend_header\n" +
+          std::string(20, '\0'),
+      "more than the file holds");
   check("no_magic.ply", "plx\n", "not a PLY file");
   check("no_end.ply", "ply\nformat ascii 1.0\nelement vertex 1\n", "end_header");
   check("no_x.ply",
-        "ply\nformat ascii 1.0\nelement vertex 1\nproperty float y\nproperty float z\nend_header\n1 2\n",
+        "ply\nformat ascii 1.0\nelement vertex 1\nproperty float y\nproperty float "
+        "z\nend_header\n1 2\n",
         "lacks an x, y or z");
-  check("bad_type.ply",
-        "ply\nformat ascii 1.0\nelement vertex 1\nproperty quad x\nend_header\n", "unknown property type");
+  check("bad_type.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty quad x\nend_header\n",
+        "unknown property type");
   check("bad_format.ply", "ply\nformat ebcdic 1.0\nend_header\n", "unknown format");
   check("short_ascii.ply",
-        "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\n"
+        "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty "
+        "float z\n"
         "end_header\n1 2 3\n",
         "ends inside element 'vertex'");
   check("bad_number.ply",
-        "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
+        "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty "
+        "float z\n"
         "end_header\n1 two 3\n",
         "expected a number");
   check("nan.ply",
-        "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
+        "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty "
+        "float z\n"
         "end_header\n1 nan 3\n",
         "NaN");
-  check("negative_count.ply", "ply\nformat ascii 1.0\nelement vertex -3\nend_header\n", "non-negative count");
+  check("negative_count.ply", "ply\nformat ascii 1.0\nelement vertex -3\nend_header\n",
+        "non-negative count");
   std::string list_bomb =
-      "ply\nformat binary_little_endian 1.0\nelement face 1\nproperty list uint int idx\nelement vertex 1\n"
+      "ply\nformat binary_little_endian 1.0\nelement face 1\nproperty list uint int idx\nelement "
+      "vertex 1\n"
       "property float x\nproperty float y\nproperty float z\nend_header\n";
   append<std::uint32_t>(list_bomb, 4000000000u);
   check("list_bomb.ply", list_bomb, "ends inside element 'face'");

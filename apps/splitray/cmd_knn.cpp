@@ -63,7 +63,8 @@ void run(const KnnCommand& command) {
     nlohmann::ordered_json object;
     object["points"] = input.points.size();
     object["queries"] = queries.size();
-    object["k"] = command.radius ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(command.k);
+    object["k"] =
+        command.radius ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(command.k);
     object["build_ms"] = index->build_ms();
     object["ms"] = ms;
     object["queries_per_s"] = queries_per_s;

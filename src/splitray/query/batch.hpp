@@ -99,16 +99,17 @@ RadiusResult gather_radius_chunks(std::size_t n, const std::vector<std::uint32_t
 template <typename Find>
 RadiusResult gather_radius(std::span<const Vec3> queries, const std::vector<std::uint32_t>& order,
                            const Find& find) {
-  return gather_radius_chunks(queries.size(), order, [&](std::size_t b, std::size_t e, const auto& emit) {
-    std::vector<WithinRadius::Entry> found;
-    Vec3 block[kQueryChunk];  // see for_each_query
-    for (std::size_t j = b; j < e; ++j) block[j - b] = queries[order.empty() ? j : order[j]];
-    for (std::size_t j = b; j < e; ++j) {
-      found.clear();
-      find(order.empty() ? j : static_cast<std::size_t>(order[j]), block[j - b], found);
-      emit(found);
-    }
-  });
+  return gather_radius_chunks(
+      queries.size(), order, [&](std::size_t b, std::size_t e, const auto& emit) {
+        std::vector<WithinRadius::Entry> found;
+        Vec3 block[kQueryChunk];  // see for_each_query
+        for (std::size_t j = b; j < e; ++j) block[j - b] = queries[order.empty() ? j : order[j]];
+        for (std::size_t j = b; j < e; ++j) {
+          found.clear();
+          find(order.empty() ? j : static_cast<std::size_t>(order[j]), block[j - b], found);
+          emit(found);
+        }
+      });
 }
 
 inline KnnResult make_knn_result(std::size_t queries, int k) {

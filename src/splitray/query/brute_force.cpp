@@ -11,17 +11,17 @@ KnnResult brute_force_knn(std::span<const Vec3> points, std::span<const Vec3> qu
   KnnResult result = detail::make_knn_result(queries.size(), k);
   const std::size_t kk = static_cast<std::size_t>(k);
   detail::for_each_query(queries, {}, [&](std::size_t q, const Vec3& query) {
-    detail::nearest_k(k, result.indices.data() + q * kk, result.distances.data() + q * kk,
-                      [&](auto& set) {
-                        for (std::size_t i = 0; i < points.size(); ++i)
-                          set.offer(distance_squared(points[i], query),
-                                    static_cast<std::uint32_t>(i));
-                      });
+    detail::nearest_k(
+        k, result.indices.data() + q * kk, result.distances.data() + q * kk, [&](auto& set) {
+          for (std::size_t i = 0; i < points.size(); ++i)
+            set.offer(distance_squared(points[i], query), static_cast<std::uint32_t>(i));
+        });
   });
   return result;
 }
 
-RadiusResult brute_force_radius(std::span<const Vec3> points, std::span<const Vec3> queries, float r) {
+RadiusResult brute_force_radius(std::span<const Vec3> points, std::span<const Vec3> queries,
+                                float r) {
   check_points(points, "brute-force search");
   check_radius(r, "radius search");
   check_queries(queries, "radius search");

@@ -8,6 +8,7 @@
 namespace splitray {
 
 KnnResult brute_force_knn(std::span<const Vec3> points, std::span<const Vec3> queries, int k);
-RadiusResult brute_force_radius(std::span<const Vec3> points, std::span<const Vec3> queries, float r);
+RadiusResult brute_force_radius(std::span<const Vec3> points, std::span<const Vec3> queries,
+                                float r);
 
 }  // namespace splitray

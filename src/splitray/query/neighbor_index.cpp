@@ -13,13 +13,15 @@ namespace {
 class TreeIndex final : public NeighborIndex {
  public:
   TreeIndex(std::span<const Vec3> points, const NeighborIndexConfig& config)
-      : tree_(points, {.builder = config.builder, .leaf_size = config.leaf_size,
-                       .radius = config.radius}) {
+      : tree_(points,
+              {.builder = config.builder, .leaf_size = config.leaf_size, .radius = config.radius}) {
     name_ = config.builder;
     build_ms_ = tree_.build_ms();
     points_ = points.size();
   }
-  KnnResult knn(std::span<const Vec3> queries, int k) const override { return tree_.knn(queries, k); }
+  KnnResult knn(std::span<const Vec3> queries, int k) const override {
+    return tree_.knn(queries, k);
+  }
   RadiusResult radius(std::span<const Vec3> queries, float r) const override {
     return tree_.radius(queries, r);
   }
@@ -65,8 +67,8 @@ std::unique_ptr<NeighborIndex> make_neighbor_index(std::span<const Vec3> points,
   if (b == "brute") return std::make_unique<BruteIndex>(points);
   if (b == "nanoflann") return detail::make_nanoflann_index(points, config);
   if (b == "flann") return detail::make_flann_index(points, config);
-  throw Error("neighbour index", "unknown builder '" + b +
-                                     "' (expected vvh, sah, median, brute, nanoflann or flann)");
+  throw Error("neighbour index",
+              "unknown builder '" + b + "' (expected vvh, sah, median, brute, nanoflann or flann)");
 }
 
 namespace detail {

@@ -8,7 +8,8 @@
 namespace splitray {
 namespace {
 
-NeighborSummary summarize(std::span<const std::uint32_t> indices, std::span<const float> distances) {
+NeighborSummary summarize(std::span<const std::uint32_t> indices,
+                          std::span<const float> distances) {
   NeighborSummary s;
   s.neighbors = indices.size();
   for (std::uint32_t i : indices) s.checksum += static_cast<std::uint64_t>(i) + 1;

@@ -10,9 +10,9 @@
 #endif
 
 #include <algorithm>
-#include <cstdlib>
 #include <array>
 #include <bit>
+#include <cstdlib>
 #include <limits>
 #include <memory>
 #include <new>
@@ -93,8 +93,8 @@ class Builder {
                          [&] { fill(points, 2); });
   }
 
-  void build(std::vector<PointNode>& out, std::size_t b, std::size_t e, const Aabb& cell,
-             int depth, unsigned parity) {
+  void build(std::vector<PointNode>& out, std::size_t b, std::size_t e, const Aabb& cell, int depth,
+             unsigned parity) {
     const std::size_t n = e - b;
     const Split split = n <= leaf_size_ || depth >= PointTree::kMaxDepth - 1
                             ? Split{}
@@ -201,14 +201,15 @@ class Builder {
     if (split.axis < 0) return split;
     // Greedy termination (Eq. 4): stay a leaf when no split is cheaper than visiting all points.
     const Vec3 ext = cell.extent() + Vec3(expansion_);
-    const double measure =
-        heuristic_ == Heuristic::sah
-            ? static_cast<double>(ext.x) * ext.y + static_cast<double>(ext.y) * ext.z +
-                  static_cast<double>(ext.z) * ext.x
-            : static_cast<double>(ext.x) * ext.y * ext.z;
+    const double measure = heuristic_ == Heuristic::sah
+                               ? static_cast<double>(ext.x) * ext.y +
+                                     static_cast<double>(ext.y) * ext.z +
+                                     static_cast<double>(ext.z) * ext.x
+                               : static_cast<double>(ext.x) * ext.y * ext.z;
     const std::size_t n = e - b;
     const double split_cost = traversal_cost_ + point_cost_ * split.cost / measure;
-    if (split_cost >= static_cast<double>(point_cost_) * static_cast<double>(n) && n <= kMaxCostLeaf)
+    if (split_cost >= static_cast<double>(point_cost_) * static_cast<double>(n) &&
+        n <= kMaxCostLeaf)
       return {};
     return split;
   }
@@ -225,7 +226,8 @@ class Builder {
     const float P = ext[(a + 1) % 3] * ext[(a + 2) % 3];
     const bool sah = heuristic_ == Heuristic::sah;
     const float S = sah ? ext[(a + 1) % 3] + ext[(a + 2) % 3] : 1.0f, Q = sah ? P : 0.0f;
-    const float lo = cell.lo[a] - expansion_, hi = cell.hi[a] + expansion_;  // key - lo: extent + 2r
+    const float lo = cell.lo[a] - expansion_,
+                hi = cell.hi[a] + expansion_;  // key - lo: extent + 2r
     const float count = static_cast<float>(n);
     const auto cost_bits = [=](int i) {  // written so that GCC vectorises it
       const float prev = keys[i - 1], key = keys[i], below = static_cast<float>(i);
@@ -237,11 +239,12 @@ class Builder {
     // first position, in one vectorised pass.
     std::uint64_t best_key = UINT64_MAX;
     for (int i = 1; i < n; ++i) {
-      const std::uint64_t key = (static_cast<std::uint64_t>(cost_bits(i)) << 32) | static_cast<std::uint32_t>(i);
+      const std::uint64_t key =
+          (static_cast<std::uint64_t>(cost_bits(i)) << 32) | static_cast<std::uint32_t>(i);
       best_key = key < best_key ? key : best_key;
     }
     const auto best = static_cast<std::uint32_t>(best_key >> 32);
-    if (best == UINT32_MAX) return {};  // no spread along this axis (NaN costs cannot occur)
+    if (best == UINT32_MAX) return {};  // no candidate: no spread (arithmetic NaNs are never ~0)
     const auto pos = static_cast<std::uint32_t>(best_key);
     const double cost = static_cast<double>(std::bit_cast<float>(best)) * (sah ? 1.0f : P);
     return {a, static_cast<std::size_t>(pos), cost};
@@ -287,19 +290,24 @@ class Builder {
       // stores: a full store would spill into the other side or a neighbouring node's range).
       const __m512 plane = _mm512_set1_ps(above_min);
       for (; i + 16 <= e; i += 16) {
-        const __mmask16 goes_below = _mm512_cmp_ps_mask(_mm512_loadu_ps(split_coord + i), plane, _CMP_LT_OQ);
+        const __mmask16 goes_below =
+            _mm512_cmp_ps_mask(_mm512_loadu_ps(split_coord + i), plane, _CMP_LT_OQ);
         const __mmask16 goes_above = static_cast<__mmask16>(~goes_below);
         const int nb = std::popcount(static_cast<unsigned>(goes_below));
         const __mmask16 first_below = static_cast<__mmask16>((1u << nb) - 1);
         const __mmask16 first_above = static_cast<__mmask16>((1u << (16 - nb)) - 1);
         for (int m = 0; m < 3; ++m) {
           const __m512 v = _mm512_loadu_ps(from.c[m] + i);
-          _mm512_mask_storeu_ps(to.c[m] + below, first_below, _mm512_maskz_compress_ps(goes_below, v));
-          _mm512_mask_storeu_ps(to.c[m] + above, first_above, _mm512_maskz_compress_ps(goes_above, v));
+          _mm512_mask_storeu_ps(to.c[m] + below, first_below,
+                                _mm512_maskz_compress_ps(goes_below, v));
+          _mm512_mask_storeu_ps(to.c[m] + above, first_above,
+                                _mm512_maskz_compress_ps(goes_above, v));
         }
         const __m512i ids = _mm512_loadu_si512(from.id + i);
-        _mm512_mask_storeu_epi32(to.id + below, first_below, _mm512_maskz_compress_epi32(goes_below, ids));
-        _mm512_mask_storeu_epi32(to.id + above, first_above, _mm512_maskz_compress_epi32(goes_above, ids));
+        _mm512_mask_storeu_epi32(to.id + below, first_below,
+                                 _mm512_maskz_compress_epi32(goes_below, ids));
+        _mm512_mask_storeu_epi32(to.id + above, first_above,
+                                 _mm512_maskz_compress_epi32(goes_above, ids));
         below += nb;
         above += 16 - nb;
       }
@@ -330,7 +338,7 @@ class Builder {
   std::size_t leaf_size_;
   float expansion_;  // 2 × the radius: a cell grows by it along every axis
   float traversal_cost_, point_cost_;
-  Scratch<float> coords_;        // [axis][buffer][coordinate][point]
+  Scratch<float> coords_;       // [axis][buffer][coordinate][point]
   Scratch<std::uint32_t> ids_;  // [axis][buffer][point]
   std::vector<std::uint32_t> permutation_;
 };

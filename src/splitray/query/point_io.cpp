@@ -34,10 +34,10 @@ enum class PlyFormat { ascii, little, big };
 
 struct PlyProperty {
   std::string name;
-  int size = 0;           // bytes of a scalar, or of each list item
-  char kind = 'f';        // 'i' signed, 'u' unsigned, 'f' float
+  int size = 0;     // bytes of a scalar, or of each list item
+  char kind = 'f';  // 'i' signed, 'u' unsigned, 'f' float
   bool list = false;
-  int count_size = 0;     // list: bytes of the count
+  int count_size = 0;  // list: bytes of the count
   char count_kind = 'u';
 };
 
@@ -54,11 +54,14 @@ struct PlyHeader {
 };
 
 bool scalar_type(const std::string& t, int& size, char& kind) {
-  static const struct { const char* name; int size; char kind; } types[] = {
-      {"char", 1, 'i'},  {"int8", 1, 'i'},   {"uchar", 1, 'u'},  {"uint8", 1, 'u'},
-      {"short", 2, 'i'}, {"int16", 2, 'i'},  {"ushort", 2, 'u'}, {"uint16", 2, 'u'},
-      {"int", 4, 'i'},   {"int32", 4, 'i'},  {"uint", 4, 'u'},   {"uint32", 4, 'u'},
-      {"float", 4, 'f'}, {"float32", 4, 'f'}, {"double", 8, 'f'}, {"float64", 8, 'f'}};
+  static const struct {
+    const char* name;
+    int size;
+    char kind;
+  } types[] = {{"char", 1, 'i'},  {"int8", 1, 'i'},    {"uchar", 1, 'u'},  {"uint8", 1, 'u'},
+               {"short", 2, 'i'}, {"int16", 2, 'i'},   {"ushort", 2, 'u'}, {"uint16", 2, 'u'},
+               {"int", 4, 'i'},   {"int32", 4, 'i'},   {"uint", 4, 'u'},   {"uint32", 4, 'u'},
+               {"float", 4, 'f'}, {"float32", 4, 'f'}, {"double", 8, 'f'}, {"float64", 8, 'f'}};
   for (const auto& type : types)
     if (t == type.name) {
       size = type.size;
@@ -98,16 +101,21 @@ PlyHeader parse_ply_header(const std::string& path, const std::string& data) {
     if (keyword == "format") {
       std::string format;
       words >> format;
-      if (format == "ascii") header.format = PlyFormat::ascii;
-      else if (format == "binary_little_endian") header.format = PlyFormat::little;
-      else if (format == "binary_big_endian") header.format = PlyFormat::big;
-      else throw fail("unknown format '" + format + "'");
+      if (format == "ascii")
+        header.format = PlyFormat::ascii;
+      else if (format == "binary_little_endian")
+        header.format = PlyFormat::little;
+      else if (format == "binary_big_endian")
+        header.format = PlyFormat::big;
+      else
+        throw fail("unknown format '" + format + "'");
       has_format = true;
     } else if (keyword == "element") {
       PlyElement element;
       std::string count;
       words >> element.name >> count;
-      const auto [end, ec] = std::from_chars(count.data(), count.data() + count.size(), element.count);
+      const auto [end, ec] =
+          std::from_chars(count.data(), count.data() + count.size(), element.count);
       if (element.name.empty() || ec != std::errc() || end != count.data() + count.size())
         throw fail("expected 'element NAME COUNT' with a non-negative count");
       header.elements.push_back(element);
@@ -152,13 +160,15 @@ double read_binary(const char* p, int size, char kind, bool big_endian) {
   for (int i = 0; i < size && i < 8; ++i)
     bytes[i] = static_cast<unsigned char>(p[swap ? size - 1 - i : i]);
   switch (kind) {
-    case 'f': return size == 4 ? load_as<float>(bytes) : load_as<double>(bytes);
+    case 'f':
+      return size == 4 ? load_as<float>(bytes) : load_as<double>(bytes);
     case 'i':
       return size == 1 ? load_as<std::int8_t>(bytes)
                        : (size == 2 ? load_as<std::int16_t>(bytes) : load_as<std::int32_t>(bytes));
     default:
-      return size == 1 ? load_as<std::uint8_t>(bytes)
-                       : (size == 2 ? load_as<std::uint16_t>(bytes) : load_as<std::uint32_t>(bytes));
+      return size == 1
+                 ? load_as<std::uint8_t>(bytes)
+                 : (size == 2 ? load_as<std::uint16_t>(bytes) : load_as<std::uint32_t>(bytes));
   }
 }
 
@@ -173,13 +183,15 @@ bool ply_declares_faces(const PlyHeader& header) {
 std::vector<Vec3> load_ply_points(const std::string& path) {
   const std::string data = read_file(path);
   const PlyHeader header = parse_ply_header(path, data);
-  const auto vertex_it = std::ranges::find(header.elements, std::string("vertex"), &PlyElement::name);
+  const auto vertex_it =
+      std::ranges::find(header.elements, std::string("vertex"), &PlyElement::name);
   if (vertex_it == header.elements.end()) throw Error(path, "the PLY file has no vertex element");
   int xyz[3] = {-1, -1, -1};
   for (std::size_t i = 0; i < vertex_it->properties.size(); ++i)
     for (int a = 0; a < 3; ++a)
       if (vertex_it->properties[i].name == std::string(1, static_cast<char>('x' + a))) {
-        if (vertex_it->properties[i].list) throw Error(path, "vertex coordinate is a list property");
+        if (vertex_it->properties[i].list)
+          throw Error(path, "vertex coordinate is a list property");
         xyz[a] = static_cast<int>(i);
       }
   if (xyz[0] < 0 || xyz[1] < 0 || xyz[2] < 0)
@@ -195,7 +207,8 @@ std::vector<Vec3> load_ply_points(const std::string& path) {
     std::size_t line_number = 0;
     for (const PlyElement& element : header.elements) {
       if (too_many(element.count))
-        throw Error(path, "element '" + element.name + "' declares " + std::to_string(element.count) +
+        throw Error(path, "element '" + element.name + "' declares " +
+                              std::to_string(element.count) +
                               " entries, more than the file can hold");
       const bool is_vertex = &element == &*vertex_it;
       if (is_vertex) points.reserve(element.count);
@@ -221,7 +234,8 @@ std::vector<Vec3> load_ply_points(const std::string& path) {
         for (std::size_t p = 0; p < element.properties.size(); ++p) {
           const double value = number();
           if (element.properties[p].list) {
-            if (!(value >= 0) || value > 1e6) throw Error(path, "vertex " + std::to_string(i) + ": bad list size");
+            if (!(value >= 0) || value > 1e6)
+              throw Error(path, "vertex " + std::to_string(i) + ": bad list size");
             for (int item = 0; item < static_cast<int>(value); ++item) number();
             continue;
           }
@@ -242,8 +256,8 @@ std::vector<Vec3> load_ply_points(const std::string& path) {
       std::size_t stride = 0;
       for (const PlyProperty& p : element.properties) stride += p.size;
       if (fixed && stride > 0 && element.count > (data.size() - pos) / stride)
-        throw Error(path, "element '" + element.name + "' declares " + std::to_string(element.count) +
-                              " entries, more than the file holds");
+        throw Error(path, "element '" + element.name + "' declares " +
+                              std::to_string(element.count) + " entries, more than the file holds");
       if (is_vertex) points.reserve(element.count);
       for (std::uint64_t i = 0; i < element.count; ++i) {
         double values[3] = {0, 0, 0};

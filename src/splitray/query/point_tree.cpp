@@ -113,7 +113,8 @@ std::vector<std::uint32_t> coherent_order(std::span<const Vec3> queries) {
       std::uint32_t c = 0;
       for (int a = 0; a < 3; ++a) {
         const float t = (queries[i][a] - box.lo[a]) * scale;
-        const auto cell = static_cast<std::uint32_t>(t > 0 ? std::min(t, 1023.0f) : 0.0f);  // NaN: 0
+        const auto cell =
+            static_cast<std::uint32_t>(t > 0 ? std::min(t, 1023.0f) : 0.0f);  // NaN: 0
         c |= spread_bits(cell) << a;
       }
       code[i] = c;
@@ -195,7 +196,8 @@ int PointTree::knn(const Vec3& query, int k, std::span<std::uint32_t> indices,
                    std::span<float> distances) const {
   check_k(k, size(), "k-nearest search");
   check_queries({&query, 1}, "k-nearest search");
-  if (indices.size() < static_cast<std::size_t>(k) || distances.size() < static_cast<std::size_t>(k))
+  if (indices.size() < static_cast<std::size_t>(k) ||
+      distances.size() < static_cast<std::size_t>(k))
     throw Error("k-nearest search", "output spans are shorter than k");
   knn_unchecked(query, k, indices.data(), distances.data());
   return k;
@@ -237,11 +239,11 @@ RadiusResult PointTree::radius(std::span<const Vec3> queries, float r) const {
   check_radius(r, "radius search");
   check_queries(queries, "radius search");
   const float r2 = r * r;
-  return detail::gather_radius(queries, coherent_order(queries),
-                               [&](std::size_t, const Vec3& point, auto& found) {
-                                 detail::WithinRadius within{r2, &found};
-                                 search(nodes_, permutation_.data(), points_.data(), bounds_, point, within);
-                               });
+  return detail::gather_radius(
+      queries, coherent_order(queries), [&](std::size_t, const Vec3& point, auto& found) {
+        detail::WithinRadius within{r2, &found};
+        search(nodes_, permutation_.data(), points_.data(), bounds_, point, within);
+      });
 }
 
 std::uint32_t PointTree::leaf_node(const Vec3& query) const {

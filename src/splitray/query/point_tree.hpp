@@ -44,7 +44,6 @@ struct PointNode {
 };
 static_assert(sizeof(PointNode) == 16);
 
-
 struct PointTreeStats {
   std::string builder;
   std::size_t points = 0;
@@ -89,7 +88,7 @@ class PointTree {
   const Aabb& bounds() const { return bounds_; }
   double build_ms() const { return build_ms_; }
   float expansion_radius() const { return radius_; }  // the VVH/SAH expansion used
-  PointTreeStats stats() const;             // walks the tree
+  PointTreeStats stats() const;                       // walks the tree
 
   // Builders by name; the first is the default.
   static std::vector<std::string> builder_names();

@@ -40,21 +40,16 @@ Bvh Bvh::from_pieces(std::span<const Triangle> triangles, const BvhPiece& root) 
   bvh.triangle_count_ = triangles.size();
   flatten_pieces<BvhNodeTraits>(root, bvh.nodes_, bvh.ids_, 2);
   if (bvh.nodes_.size() == 2 && !bvh.nodes_[0].leaf() && bvh.ids_.empty()) bvh.nodes_.clear();  // nothing to hold
-  bvh.tris_.resize(bvh.ids_.size());
-  parallel_chunks(bvh.ids_.size(), 4096, [&](std::size_t begin, std::size_t end) {
-    for (std::size_t i = begin; i < end; ++i) {
-      if (bvh.ids_[i] >= triangles.size()) throw Error("bvh", "a leaf refers to a triangle that does not exist");
-      bvh.tris_[i] = triangles[bvh.ids_[i]];
-    }
-  });
-  bvh.update_scene_bounds();
-  bvh.wide_.collapse(bvh.nodes_);
+  for (const std::uint32_t id : bvh.ids_)
+    if (id >= triangles.size()) throw Error("bvh", "a leaf refers to a triangle that does not exist");
+  bvh.update_scene_bounds(triangles);
+  bvh.wide_.collapse(bvh.nodes_, bvh.ids_, triangles);
   return bvh;
 }
 
-void Bvh::update_scene_bounds() {
+void Bvh::update_scene_bounds(std::span<const Triangle> triangles) {
   scene_ = nodes_.empty() ? Aabb{} : nodes_[0].box();
-  for (const Triangle& t : tris_) scene_.extend(t.bounds());  // clipped boxes may be smaller
+  for (const std::uint32_t id : ids_) scene_.extend(triangles[id].bounds());  // clipped boxes may be smaller
   magnitude_ = nodes_.empty() ? 0.0f : coordinate_magnitude(scene_);
 }
 
@@ -62,29 +57,25 @@ void Bvh::refit(std::span<const Triangle> triangles) {
   if (triangles.size() != triangle_count_)
     throw Error("bvh refit", "the deformed mesh has " + std::to_string(triangles.size()) +
                                  " triangles, the BVH was built on " + std::to_string(triangle_count_));
-  parallel_chunks(ids_.size(), 4096, [&](std::size_t begin, std::size_t end) {
-    for (std::size_t i = begin; i < end; ++i) tris_[i] = triangles[ids_[i]];
-  });
   // Children always come after their parent: one backward pass is bottom-up.
   for (std::size_t i = nodes_.size(); i-- > 0;) {
     BvhNode& n = nodes_[i];
     if (i == 1) continue;  // the unused slot
     Aabb box;
     if (n.leaf()) {
-      for (std::uint32_t r = n.index; r < n.index + n.count(); ++r) box.extend(tris_[r].bounds());
+      for (std::uint32_t r = n.index; r < n.index + n.count(); ++r) box.extend(triangles[ids_[r]].bounds());
     } else {
       box = merge(nodes_[n.index].box(), nodes_[n.index + 1].box());
     }
     n.lo = box.lo;
     n.hi = box.hi;
   }
-  wide_.update_boxes(nodes_);
-  update_scene_bounds();
+  wide_.refit(nodes_, triangles);
+  update_scene_bounds(triangles);
 }
 
 std::size_t Bvh::bytes() const {
-  return nodes_.size() * sizeof(BvhNode) + wide_.bytes() + ids_.size() * sizeof(std::uint32_t) +
-         tris_.size() * sizeof(Triangle);
+  return nodes_.size() * sizeof(BvhNode) + wide_.bytes() + ids_.size() * sizeof(std::uint32_t);
 }
 
 void Bvh::fill_stats(AccelStats& stats, float traversal_cost, float intersection_cost) const {
@@ -133,11 +124,11 @@ Hit Bvh::intersect(const Ray& ray) const {
   Hit hit;
   if (nodes_.empty()) return hit;
   hit.t = ray.tmax;
-  wide_.intersect(ray, scene_, magnitude_, tris_, ids_, hit);
+  wide_.intersect(ray, scene_, magnitude_, hit);
   if (!hit.found()) hit.t = kInfinity;
   return hit;
 }
 
-bool Bvh::occluded(const Ray& ray) const { return !nodes_.empty() && wide_.occluded(ray, scene_, magnitude_, tris_); }
+bool Bvh::occluded(const Ray& ray) const { return !nodes_.empty() && wide_.occluded(ray, scene_, magnitude_); }
 
 }  // namespace splitray

@@ -2,8 +2,8 @@
 // A BVH over triangles: built as a binary tree of 32-byte nodes (children side by side,
 // pairs cache-line aligned; what builders, refit and statistics work on), traversed in its
 // eight-wide collapsed form (wide_bvh.hpp: one SIMD slab test per eight children, nearest
-// child first, fixed stack). Leaves reference copies of their triangles. Refitting moves
-// the boxes for meshes that deform with fixed topology.
+// child first, fixed stack; leaf triangles copied into blocks of four tested at once).
+// Refitting moves the boxes and triangles for meshes that deform with fixed topology.
 //
 //   Bvh bvh = Bvh::build(triangles, "sbvh", BvhBuildOptions::from(config));
 //   Hit hit = bvh.intersect(ray);
@@ -60,12 +60,11 @@ class Bvh {
   std::size_t bytes() const;
 
  private:
-  void update_scene_bounds();
+  void update_scene_bounds(std::span<const Triangle> triangles);
 
   std::vector<BvhNode, CacheAligned<BvhNode>> nodes_;  // root at 0, slot 1 unused
   WideBvh wide_;                                       // the traversal layout
   std::vector<std::uint32_t> ids_;                     // triangle id of each leaf reference
-  std::vector<Triangle> tris_;                         // the triangle of each leaf reference
   std::size_t triangle_count_ = 0;
   Aabb scene_;             // bounds of all triangles (conservative ray padding)
   float magnitude_ = 0;

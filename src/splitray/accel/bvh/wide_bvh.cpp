@@ -7,6 +7,7 @@
 #include <immintrin.h>
 #endif
 
+#include <algorithm>
 #include <bit>
 #include <limits>
 
@@ -31,8 +32,35 @@ void set_slot(WideNode& w, int slot, const Aabb& box) {
   }
 }
 
-std::uint32_t collapse_node(std::span<const BvhNode> nodes, std::uint32_t binary, std::vector<WideNode>& out,
-                            std::vector<std::uint32_t>& source) {
+struct Collapse {
+  std::span<const BvhNode> nodes;
+  std::span<const std::uint32_t> ids;
+  std::span<const Triangle> triangles;
+  std::vector<WideNode>& out;
+  std::vector<std::uint32_t>& source;
+  std::vector<TriangleBlock>& blocks;
+};
+
+// Appends the blocks of a binary leaf; returns the first.
+std::uint32_t add_blocks(const Collapse& c, const BvhNode& leaf, std::uint32_t& count) {
+  const auto first = static_cast<std::uint32_t>(c.blocks.size());
+  const std::uint32_t refs = leaf.count();
+  count = (refs + kBlockWidth - 1) / kBlockWidth;
+  for (std::uint32_t b = 0; b < count; ++b) {
+    TriangleBlock block;
+    for (int lane = 0; lane < kBlockWidth; ++lane) {
+      const std::uint32_t r = leaf.index + std::min(b * kBlockWidth + static_cast<std::uint32_t>(lane), refs - 1);
+      block.set(lane, c.triangles[c.ids[r]], c.ids[r]);
+    }
+    c.blocks.push_back(block);
+  }
+  return first;
+}
+
+std::uint32_t collapse_node(const Collapse& c, std::uint32_t binary) {
+  const std::span<const BvhNode> nodes = c.nodes;
+  std::vector<WideNode>& out = c.out;
+  std::vector<std::uint32_t>& source = c.source;
   const auto index = static_cast<std::uint32_t>(out.size());
   out.emplace_back();
   source.resize(source.size() + kWideWidth, kInvalidId);
@@ -70,8 +98,11 @@ std::uint32_t collapse_node(std::span<const BvhNode> nodes, std::uint32_t binary
   }
   for (int i = 0; i < count; ++i) {
     const BvhNode& n = nodes[slots[i]];
-    std::uint32_t child = n.index, refs = n.count();
-    if (!n.leaf()) child = collapse_node(nodes, slots[i], out, source);  // may move `out`
+    std::uint32_t child, refs = 0;  // a leaf: its blocks
+    if (n.leaf())
+      child = add_blocks(c, n, refs);
+    else
+      child = collapse_node(c, slots[i]);  // may move `out`
     WideNode& w = out[index];
     set_slot(w, i, n.box());
     w.child[i] = child;
@@ -130,28 +161,101 @@ struct Slab8 {
   }
 };
 
-inline void prefetch(const WideNode* node) {
+// Asks for the four cache lines of a node (or the three of a block) before they are needed.
+inline void prefetch(const void* p) {
 #if defined(__SSE__)
-  const char* p = reinterpret_cast<const char*>(node);
-  for (int line = 0; line < 4; ++line) _mm_prefetch(p + 64 * line, _MM_HINT_T0);
+  const char* c = static_cast<const char*>(p);
+  for (int line = 0; line < 4; ++line) _mm_prefetch(c + 64 * line, _MM_HINT_T0);
 #else
-  (void)node;
+  (void)p;
 #endif
 }
 
+// The watertight test of triangle.hpp on four triangles at once: the same IEEE operations in
+// the same order, lane by lane. Lanes where an edge function is exactly zero (decided in
+// double precision by the scalar test) are returned in `scalar` and left to that test.
+struct Watertight4 {
+  const WatertightRay& w;
+  int k[3];  // kx, ky, kz
+#if defined(__SSE2__)
+  __m128 org[3], sx, sy, sz;  // org[i] = origin[k[i]]
+#endif
+  explicit Watertight4(const WatertightRay& ray) : w(ray), k{ray.kx, ray.ky, ray.kz} {
+#if defined(__SSE2__)
+    for (int i = 0; i < 3; ++i) org[i] = _mm_set1_ps(ray.org[k[i]]);
+    sx = _mm_set1_ps(ray.sx);
+    sy = _mm_set1_ps(ray.sy);
+    sz = _mm_set1_ps(ray.sz);
+#endif
+  }
+
+  // Bit i: lane i hits with tmin <= t <= tmax (t, u, v stored).
+  unsigned test(const TriangleBlock& b, float tmin, float tmax, float* t_out, float* u_out, float* v_out,
+                unsigned& scalar) const {
+#if defined(__SSE2__)
+    const auto row = [&](int vertex, int i) { return _mm_sub_ps(_mm_load_ps(b.v[3 * vertex + k[i]]), org[i]); };
+    const __m128 a_x = row(0, 0), a_y = row(0, 1), a_z = row(0, 2);
+    const __m128 b_x = row(1, 0), b_y = row(1, 1), b_z = row(1, 2);
+    const __m128 c_x = row(2, 0), c_y = row(2, 1), c_z = row(2, 2);
+    const __m128 ax = _mm_sub_ps(a_x, _mm_mul_ps(sx, a_z)), ay = _mm_sub_ps(a_y, _mm_mul_ps(sy, a_z));
+    const __m128 bx = _mm_sub_ps(b_x, _mm_mul_ps(sx, b_z)), by = _mm_sub_ps(b_y, _mm_mul_ps(sy, b_z));
+    const __m128 cx = _mm_sub_ps(c_x, _mm_mul_ps(sx, c_z)), cy = _mm_sub_ps(c_y, _mm_mul_ps(sy, c_z));
+    const __m128 u = _mm_sub_ps(_mm_mul_ps(cx, by), _mm_mul_ps(cy, bx));
+    const __m128 v = _mm_sub_ps(_mm_mul_ps(ax, cy), _mm_mul_ps(ay, cx));
+    const __m128 e = _mm_sub_ps(_mm_mul_ps(bx, ay), _mm_mul_ps(by, ax));
+    const __m128 zero = _mm_setzero_ps();
+    const __m128 on_edge = _mm_or_ps(_mm_or_ps(_mm_cmpeq_ps(u, zero), _mm_cmpeq_ps(v, zero)), _mm_cmpeq_ps(e, zero));
+    scalar = static_cast<unsigned>(_mm_movemask_ps(on_edge));
+    const __m128 negative = _mm_or_ps(_mm_or_ps(_mm_cmplt_ps(u, zero), _mm_cmplt_ps(v, zero)), _mm_cmplt_ps(e, zero));
+    const __m128 positive = _mm_or_ps(_mm_or_ps(_mm_cmpgt_ps(u, zero), _mm_cmpgt_ps(v, zero)), _mm_cmpgt_ps(e, zero));
+    const __m128 det = _mm_add_ps(_mm_add_ps(u, v), e);
+    const __m128 outside = _mm_or_ps(_mm_or_ps(_mm_and_ps(negative, positive), _mm_cmpeq_ps(det, zero)), on_edge);
+    if (_mm_movemask_ps(outside) == 0xf) return 0;
+    const __m128 az = _mm_mul_ps(sz, a_z), bz = _mm_mul_ps(sz, b_z), cz = _mm_mul_ps(sz, c_z);
+    const __m128 t_scaled = _mm_add_ps(_mm_add_ps(_mm_mul_ps(u, az), _mm_mul_ps(v, bz)), _mm_mul_ps(e, cz));
+    const __m128 inv_det = _mm_div_ps(_mm_set1_ps(1.0f), det);
+    const __m128 t = _mm_mul_ps(t_scaled, inv_det);
+    const __m128 in_range = _mm_and_ps(_mm_cmpge_ps(t, _mm_set1_ps(tmin)), _mm_cmple_ps(t, _mm_set1_ps(tmax)));
+    _mm_storeu_ps(t_out, t);
+    _mm_storeu_ps(u_out, _mm_mul_ps(v, inv_det));
+    _mm_storeu_ps(v_out, _mm_mul_ps(e, inv_det));
+    return static_cast<unsigned>(_mm_movemask_ps(_mm_andnot_ps(outside, in_range)));
+#else
+    (void)tmin, (void)tmax, (void)b, (void)t_out, (void)u_out, (void)v_out;
+    scalar = (1u << kBlockWidth) - 1;
+    return 0;
+#endif
+  }
+};
+
 template <bool AnyHit>
-bool traverse(std::span<const WideNode> nodes, const Ray& ray, const RobustRay& r, std::span<const Triangle> tris,
-              std::span<const std::uint32_t> ids, Hit& hit) {
+bool traverse(std::span<const WideNode> nodes, std::span<const TriangleBlock> blocks, const Ray& ray,
+              const RobustRay& r, Hit& hit) {
   const WatertightRay w(ray);
+  const Watertight4 w4(w);
   const Slab8 slab(r);
-  // Tests a leaf; true when an any-hit query is answered.
+  // Tests a leaf's blocks; true when an any-hit query is answered.
   const auto leaf = [&](std::uint32_t first, std::uint32_t count) {
     for (std::uint32_t i = first; i < first + count; ++i) {
+      const TriangleBlock& b = blocks[i];
+      alignas(16) float t[kBlockWidth], u[kBlockWidth], v[kBlockWidth];
+      unsigned scalar;
+      unsigned found = w4.test(b, ray.tmin, AnyHit ? ray.tmax : hit.t, t, u, v, scalar);
+      while (scalar != 0) {  // edge cases: the scalar test decides in double precision
+        const int lane = std::countr_zero(scalar);
+        scalar &= scalar - 1;
+        if (intersect_triangle(w, b.triangle(lane), ray.tmin, AnyHit ? ray.tmax : hit.t, t[lane], u[lane], v[lane]))
+          found |= 1u << lane;
+      }
       if constexpr (AnyHit) {
-        float t, u, v;
-        if (intersect_triangle(w, tris[i], ray.tmin, ray.tmax, t, u, v)) return true;
+        if (found != 0) return true;
       } else {
-        intersect_triangle(w, tris[i], ids[i], ray.tmin, hit);
+        while (found != 0) {
+          const int lane = std::countr_zero(found);
+          found &= found - 1;
+          const Hit candidate{t[lane], b.id[lane], u[lane], v[lane]};
+          if (candidate.closer_than(hit)) hit = candidate;
+        }
       }
     }
     return false;
@@ -169,7 +273,7 @@ bool traverse(std::span<const WideNode> nodes, const Ray& ray, const RobustRay& 
         mask &= mask - 1;
         Entry nearest{n.child[i], n.count[i], t_entry[i]};
         const int base = sp;
-        while (mask != 0) {  // keep the stack ordered: farther entries lower
+        while (mask != 0) {  // keep this node's entries ordered: farther ones lower
           i = std::countr_zero(mask);
           mask &= mask - 1;
           Entry e{n.child[i], n.count[i], t_entry[i]};
@@ -179,7 +283,8 @@ bool traverse(std::span<const WideNode> nodes, const Ray& ray, const RobustRay& 
           stack[j] = e;
         }
         current = nearest;
-        if (current.count == 0) prefetch(&nodes[current.child]);
+        prefetch(current.count == 0 ? static_cast<const void*>(&nodes[current.child])
+                                    : static_cast<const void*>(&blocks[current.child]));
         continue;
       }
     } else if (leaf(current.child, current.count)) {
@@ -195,35 +300,45 @@ bool traverse(std::span<const WideNode> nodes, const Ray& ray, const RobustRay& 
 
 }  // namespace
 
-void WideBvh::collapse(std::span<const BvhNode> nodes) {
-  nodes_.clear();
-  source_.clear();
-  if (nodes.empty()) return;
-  nodes_.reserve(nodes.size() / 4 + 1);
-  collapse_node(nodes, 0, nodes_, source_);
+void TriangleBlock::set(int lane, const Triangle& t, std::uint32_t prim) {
+  for (int vertex = 0; vertex < 3; ++vertex)
+    for (int a = 0; a < 3; ++a) v[3 * vertex + a][lane] = t.vertex(vertex)[a];
+  id[lane] = prim;
 }
 
-void WideBvh::update_boxes(std::span<const BvhNode> nodes) {
+void WideBvh::collapse(std::span<const BvhNode> nodes, std::span<const std::uint32_t> ids,
+                       std::span<const Triangle> triangles) {
+  nodes_.clear();
+  source_.clear();
+  blocks_.clear();
+  if (nodes.empty()) return;
+  nodes_.reserve(nodes.size() / 4 + 1);
+  blocks_.reserve(ids.size() / 2 + 1);
+  collapse_node({nodes, ids, triangles, nodes_, source_, blocks_}, 0);
+}
+
+void WideBvh::refit(std::span<const BvhNode> nodes, std::span<const Triangle> triangles) {
   for (std::size_t w = 0; w < nodes_.size(); ++w)
     for (int i = 0; i < kWideWidth; ++i) {
       const std::uint32_t s = source_[w * kWideWidth + static_cast<std::size_t>(i)];
       if (s != kInvalidId) set_slot(nodes_[w], i, nodes[s].box());
     }
+  for (TriangleBlock& b : blocks_)
+    for (int lane = 0; lane < kBlockWidth; ++lane) b.set(lane, triangles[b.id[lane]], b.id[lane]);
 }
 
-void WideBvh::intersect(const Ray& ray, const Aabb& scene, float magnitude, std::span<const Triangle> tris,
-                        std::span<const std::uint32_t> ids, Hit& hit) const {
+void WideBvh::intersect(const Ray& ray, const Aabb& scene, float magnitude, Hit& hit) const {
   if (nodes_.empty()) return;
   const RobustRay r(ray, scene, magnitude);
-  traverse<false>(nodes_, ray, r, tris, ids, hit);
+  traverse<false>(nodes_, blocks_, ray, r, hit);
 }
 
-bool WideBvh::occluded(const Ray& ray, const Aabb& scene, float magnitude, std::span<const Triangle> tris) const {
+bool WideBvh::occluded(const Ray& ray, const Aabb& scene, float magnitude) const {
   if (nodes_.empty()) return false;
   const RobustRay r(ray, scene, magnitude);
   Hit hit;
   hit.t = ray.tmax;
-  return traverse<true>(nodes_, ray, r, tris, {}, hit);
+  return traverse<true>(nodes_, blocks_, ray, r, hit);
 }
 
 }  // namespace splitray

@@ -23,7 +23,8 @@ class FlannIndex final : public NeighborIndex {
       : coherent_(config.coherent_peers) {
     check_points(points, "FLANN");
     const Timer timer;
-    tree_ = std::make_unique<Tree>(as_matrix(points), flann::KDTreeSingleIndexParams(config.leaf_size));
+    tree_ =
+        std::make_unique<Tree>(as_matrix(points), flann::KDTreeSingleIndexParams(config.leaf_size));
     tree_->buildIndex();
     build_ms_ = timer.ms();
     name_ = "flann";
@@ -61,19 +62,20 @@ class FlannIndex final : public NeighborIndex {
     check_queries(queries, "radius search");
     const float r2 = strict_radius_squared(r);
     const std::vector<std::uint32_t> ord = order(queries);
-    return gather_radius_chunks(queries.size(), ord, [&](std::size_t b, std::size_t e, const auto& emit) {
-      const std::vector<Vec3> chunk = gather(queries, ord, b, e);
-      std::vector<std::vector<std::size_t>> indices;
-      std::vector<std::vector<float>> dists;
-      tree_->radiusSearch(as_matrix(chunk), indices, dists, r2, flann::SearchParams(-1));
-      std::vector<WithinRadius::Entry> found;
-      for (std::size_t row = 0; row < e - b; ++row) {
-        found.clear();
-        for (std::size_t m = 0; m < indices[row].size(); ++m)
-          found.emplace_back(dists[row][m], static_cast<std::uint32_t>(indices[row][m]));
-        emit(found);
-      }
-    });
+    return gather_radius_chunks(
+        queries.size(), ord, [&](std::size_t b, std::size_t e, const auto& emit) {
+          const std::vector<Vec3> chunk = gather(queries, ord, b, e);
+          std::vector<std::vector<std::size_t>> indices;
+          std::vector<std::vector<float>> dists;
+          tree_->radiusSearch(as_matrix(chunk), indices, dists, r2, flann::SearchParams(-1));
+          std::vector<WithinRadius::Entry> found;
+          for (std::size_t row = 0; row < e - b; ++row) {
+            found.clear();
+            for (std::size_t m = 0; m < indices[row].size(); ++m)
+              found.emplace_back(dists[row][m], static_cast<std::uint32_t>(indices[row][m]));
+            emit(found);
+          }
+        });
   }
 
  private:
@@ -81,8 +83,9 @@ class FlannIndex final : public NeighborIndex {
     return coherent_ ? coherent_order(queries) : std::vector<std::uint32_t>{};
   }
   // The queries at positions [b, e) of the processing order, as FLANN rows.
-  static std::vector<Vec3> gather(std::span<const Vec3> queries, const std::vector<std::uint32_t>& ord,
-                                  std::size_t b, std::size_t e) {
+  static std::vector<Vec3> gather(std::span<const Vec3> queries,
+                                  const std::vector<std::uint32_t>& ord, std::size_t b,
+                                  std::size_t e) {
     std::vector<Vec3> rows(e - b);
     for (std::size_t j = b; j < e; ++j) rows[j - b] = queries[ord.empty() ? j : ord[j]];
     return rows;
