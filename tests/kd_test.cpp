@@ -75,7 +75,9 @@ class RayMaker {
     const Vec3 e = box_.extent();
     return box_.lo + Vec3{uniform() * e.x, uniform() * e.y, uniform() * e.z};
   }
-  Vec3 outside() { return box_.center() + uniform_sphere(uniform(), uniform()) * (scale_ * (0.6f + uniform())); }
+  Vec3 outside() {
+    return box_.center() + uniform_sphere(uniform(), uniform()) * (scale_ * (0.6f + uniform()));
+  }
   Vec3 vertex() { return mesh_.positions[index(mesh_.positions.size())]; }
   // Exactly the float midpoint of an edge two triangles share (or a vertex if there is none).
   Vec3 edge_point() {
@@ -109,7 +111,8 @@ class RayMaker {
       case 2: {  // axis-parallel through an edge midpoint or a vertex (in split planes)
         const int axis = static_cast<int>(index(3));
         ray.org = uniform() < 0.5f ? edge_point() : vertex();
-        ray.org[axis] = uniform() < 0.5f ? box_.lo[axis] - scale_ * 0.1f : box_.lo[axis] + uniform() * box_.extent()[axis];
+        ray.org[axis] = uniform() < 0.5f ? box_.lo[axis] - scale_ * 0.1f
+                                         : box_.lo[axis] + uniform() * box_.extent()[axis];
         ray.dir = axis_dir(axis, uniform() < 0.5f);
         break;
       }
@@ -165,13 +168,14 @@ class RayMaker {
 std::string describe(const Ray& r) {
   std::ostringstream s;
   s.precision(9);
-  s << "org (" << r.org.x << ", " << r.org.y << ", " << r.org.z << ") dir (" << r.dir.x << ", " << r.dir.y
-    << ", " << r.dir.z << ") t [" << r.tmin << ", " << r.tmax << "]";
+  s << "org (" << r.org.x << ", " << r.org.y << ", " << r.org.z << ") dir (" << r.dir.x << ", "
+    << r.dir.y << ", " << r.dir.z << ") t [" << r.tmin << ", " << r.tmax << "]";
   return s.str();
 }
 
 bool same_hit(const Hit& a, const Hit& b) {
-  return a.prim == b.prim && std::bit_cast<std::uint32_t>(a.t) == std::bit_cast<std::uint32_t>(b.t) &&
+  return a.prim == b.prim &&
+         std::bit_cast<std::uint32_t>(a.t) == std::bit_cast<std::uint32_t>(b.t) &&
          std::bit_cast<std::uint32_t>(a.u) == std::bit_cast<std::uint32_t>(b.u) &&
          std::bit_cast<std::uint32_t>(a.v) == std::bit_cast<std::uint32_t>(b.v);
 }
@@ -193,11 +197,12 @@ void expect_brute_hits(const Mesh& mesh, std::uint64_t seed, std::size_t count =
   for (std::size_t i = 0; i < rays.size(); ++i) {
     found += expected[i].found() ? 1 : 0;
     if (!same_hit(expected[i], got[i]) && ++wrong_hits <= 5)
-      ADD_FAILURE() << "ray " << i << " " << describe(rays[i]) << ": brute prim " << expected[i].prim << " t "
-                    << expected[i].t << ", kd prim " << got[i].prim << " t " << got[i].t;
+      ADD_FAILURE() << "ray " << i << " " << describe(rays[i]) << ": brute prim "
+                    << expected[i].prim << " t " << expected[i].t << ", kd prim " << got[i].prim
+                    << " t " << got[i].t;
     if ((occluded[i] != 0) != expected[i].found() && ++wrong_any <= 5)
-      ADD_FAILURE() << "ray " << i << " " << describe(rays[i]) << ": brute any hit " << expected[i].found()
-                    << ", kd " << int{occluded[i]};
+      ADD_FAILURE() << "ray " << i << " " << describe(rays[i]) << ": brute any hit "
+                    << expected[i].found() << ", kd " << int{occluded[i]};
   }
   EXPECT_EQ(wrong_hits, 0u) << "of " << rays.size() << " rays";
   EXPECT_EQ(wrong_any, 0u) << "of " << rays.size() << " rays";
@@ -284,18 +289,18 @@ TEST(KdAccel, HandlesDegenerateRaysLikeBrute) {
   const auto brute = make_brute(triangles, {});
   const Vec3 c = mesh.bounds().center();
   std::vector<Ray> rays = {
-      {c, {0, 0, 0}},                        // zero direction
-      {c, {NAN, 1, 0}},                      // NaN direction
-      {c, {kInfinity, 1, 0}},                // infinite direction
-      {{NAN, 0, 0}, {1, 0, 0}},              // NaN origin
-      {c, {1, 0, 0}, 1, 0.5f},               // tmin > tmax
-      {c, {1, 0, 0}, NAN, 1},                // NaN tmin
-      {c, {1, 0, 0}, 0, NAN},                // NaN tmax
-      {c, {0, 1, 0}, 0.1f, 0.1f},            // empty-width interval
-      {c, {1e-30f, 1e-30f, 1e-30f}},         // tiny direction
-      {c, {1e30f, 0, 0}},                    // huge direction
-      {c - Vec3{1e6f, 0, 0}, {1, 0, 0}},     // from far away
-      {c, {1, 1e-39f, -1e-39f}},             // denormal components
+      {c, {0, 0, 0}},                     // zero direction
+      {c, {NAN, 1, 0}},                   // NaN direction
+      {c, {kInfinity, 1, 0}},             // infinite direction
+      {{NAN, 0, 0}, {1, 0, 0}},           // NaN origin
+      {c, {1, 0, 0}, 1, 0.5f},            // tmin > tmax
+      {c, {1, 0, 0}, NAN, 1},             // NaN tmin
+      {c, {1, 0, 0}, 0, NAN},             // NaN tmax
+      {c, {0, 1, 0}, 0.1f, 0.1f},         // empty-width interval
+      {c, {1e-30f, 1e-30f, 1e-30f}},      // tiny direction
+      {c, {1e30f, 0, 0}},                 // huge direction
+      {c - Vec3{1e6f, 0, 0}, {1, 0, 0}},  // from far away
+      {c, {1, 1e-39f, -1e-39f}},          // denormal components
   };
   for (const Ray& ray : rays) {
     EXPECT_TRUE(same_hit(kd->intersect(ray), brute->intersect(ray))) << describe(ray);
@@ -313,7 +318,8 @@ TEST(KdAccel, SameTreeForOneAndTwoThreads) {
     const auto two = build_kd(triangles, 2);
     const KdTree &a = tree_of(*one), &b = tree_of(*two);
     ASSERT_EQ(a.nodes.size(), b.nodes.size()) << file;
-    EXPECT_EQ(std::memcmp(a.nodes.data(), b.nodes.data(), a.nodes.size() * sizeof(KdNode)), 0) << file;
+    EXPECT_EQ(std::memcmp(a.nodes.data(), b.nodes.data(), a.nodes.size() * sizeof(KdNode)), 0)
+        << file;
     EXPECT_EQ(a.prim_ids, b.prim_ids) << file;
     EXPECT_EQ(one->stats().cost_evals, two->stats().cost_evals) << file;
     EXPECT_EQ(one->stats().sah_cost, two->stats().sah_cost) << file;
@@ -321,7 +327,8 @@ TEST(KdAccel, SameTreeForOneAndTwoThreads) {
 }
 
 TEST(KdAccel, StatisticsDescribeTheTree) {
-  const std::vector<Triangle> triangles = load_mesh(test::vendored_file("horse/horse.obj.gz")).triangles();
+  const std::vector<Triangle> triangles =
+      load_mesh(test::vendored_file("horse/horse.obj.gz")).triangles();
   BuildConfig config;
   const auto kd = make_kd(triangles, config);
   const AccelStats& s = kd->stats();
@@ -362,7 +369,10 @@ TEST(KdAccel, StatisticsDescribeTheTree) {
 class NaiveSahBuilder {
  public:
   NaiveSahBuilder(std::span<const Triangle> triangles, const BuildConfig& config)
-      : triangles_(triangles), config_(config), sah_(config), max_depth_(kd_max_depth(config, triangles.size())) {}
+      : triangles_(triangles),
+        config_(config),
+        sah_(config),
+        max_depth_(kd_max_depth(config, triangles.size())) {}
 
   struct Item {
     std::uint32_t id;
@@ -378,21 +388,26 @@ class NaiveSahBuilder {
     if (items.size() > static_cast<std::size_t>(config_.max_leaf_prims) && depth < max_depth_) {
       for (int axis = 0; axis < 3; ++axis) {
         std::vector<float> positions;
-        for (const Item& item : items) positions.insert(positions.end(), {item.box.lo[axis], item.box.hi[axis]});
+        for (const Item& item : items)
+          positions.insert(positions.end(), {item.box.lo[axis], item.box.hi[axis]});
         std::sort(positions.begin(), positions.end());
         positions.erase(std::unique(positions.begin(), positions.end()), positions.end());
         for (const float p : positions) {
           if (!(p > box.lo[axis] && p < box.hi[axis])) continue;
           std::size_t n_below = 0, n_above = 0, n_planar = 0;
           for (const Item& item : items) {
-            if (item.box.lo[axis] == p && item.box.hi[axis] == p) ++n_planar;
-            else n_below += item.box.lo[axis] < p ? 1 : 0, n_above += item.box.hi[axis] > p ? 1 : 0;
+            if (item.box.lo[axis] == p && item.box.hi[axis] == p)
+              ++n_planar;
+            else
+              n_below += item.box.lo[axis] < p ? 1 : 0, n_above += item.box.hi[axis] > p ? 1 : 0;
           }
           const double below_cost = sah_.split(box, axis, p, n_below + n_planar, n_above);
-          if (below_cost < best) best = below_cost, best_axis = axis, best_pos = p, best_below = true;
+          if (below_cost < best)
+            best = below_cost, best_axis = axis, best_pos = p, best_below = true;
           if (n_planar == 0) continue;
           const double above_cost = sah_.split(box, axis, p, n_below, n_above + n_planar);
-          if (above_cost < best) best = above_cost, best_axis = axis, best_pos = p, best_below = false;
+          if (above_cost < best)
+            best = above_cost, best_axis = axis, best_pos = p, best_below = false;
         }
       }
     }
@@ -408,10 +423,13 @@ class NaiveSahBuilder {
     for (const Item& item : items) {
       const float lo = item.box.lo[best_axis], hi = item.box.hi[best_axis];
       const bool planar = lo == hi;
-      const bool go_below = planar ? (lo < best_pos || (lo == best_pos && best_below)) : hi <= best_pos;
+      const bool go_below =
+          planar ? (lo < best_pos || (lo == best_pos && best_below)) : hi <= best_pos;
       const bool go_above = planar ? !go_below : lo >= best_pos;
-      if (go_below) below.push_back(item);
-      else if (go_above) above.push_back(item);
+      if (go_below)
+        below.push_back(item);
+      else if (go_above)
+        above.push_back(item);
       else {
         below.push_back({item.id, clip_triangle_bounds(triangles_[item.id], below_box)});
         above.push_back({item.id, clip_triangle_bounds(triangles_[item.id], above_box)});
@@ -433,7 +451,8 @@ class NaiveSahBuilder {
 
 TEST(KdSahBuilder, EqualsAnExhaustiveSearchAtEveryNode) {
   std::vector<std::string> files{test::vendored_file("horse/horse.obj.gz")};
-  for (const char* shared : {"static_cornell_box/cornell_box.obj", "anim_md2_faerie/frames/faerie_000.obj"})
+  for (const char* shared :
+       {"static_cornell_box/cornell_box.obj", "anim_md2_faerie/frames/faerie_000.obj"})
     if (const std::string path = test::shared_file(shared); !path.empty()) files.push_back(path);
   for (const std::string& file : files) {
     std::vector<Triangle> triangles = load_mesh(file).triangles();
@@ -444,18 +463,23 @@ TEST(KdSahBuilder, EqualsAnExhaustiveSearchAtEveryNode) {
       const auto kd = make_kd(triangles, config);
       const KdTree& tree = tree_of(*kd);
       std::vector<NaiveSahBuilder::Item> items;
-      for (std::uint32_t i = 0; i < triangles.size(); ++i) items.push_back({i, triangles[i].bounds()});
+      for (std::uint32_t i = 0; i < triangles.size(); ++i)
+        items.push_back({i, triangles[i].bounds()});
       const auto naive_root = NaiveSahBuilder(triangles, config).build(items, tree.bounds, 0);
       const KdTree naive = flatten_kd(*naive_root, tree.bounds);
       ASSERT_EQ(naive.nodes.size(), tree.nodes.size()) << file;
-      EXPECT_EQ(std::memcmp(naive.nodes.data(), tree.nodes.data(), tree.nodes.size() * sizeof(KdNode)), 0) << file;
+      EXPECT_EQ(
+          std::memcmp(naive.nodes.data(), tree.nodes.data(), tree.nodes.size() * sizeof(KdNode)), 0)
+          << file;
       EXPECT_EQ(naive.prim_ids, tree.prim_ids) << file;
       EXPECT_GT(tree.nodes.size(), 50u) << file;
     }
   }
 }
 
-TEST(KdAccel, MatchesBruteOnHorse) { expect_brute_hits(load_mesh(test::vendored_file("horse/horse.obj.gz")), 1); }
+TEST(KdAccel, MatchesBruteOnHorse) {
+  expect_brute_hits(load_mesh(test::vendored_file("horse/horse.obj.gz")), 1);
+}
 
 TEST(KdAccel, MatchesBruteOnCornellBox) {
   SPLITRAY_REQUIRE_SHARED(path, "static_cornell_box/cornell_box.obj");
@@ -474,7 +498,8 @@ TEST(KdAccel, MatchesBruteOnWalkingCat) {
 
 // Large scenes cost brute force minutes: run on request (SPLITRAY_KD_TEST_LARGE=1).
 TEST(KdAccel, MatchesBruteOnLargeScenes) {
-  if (std::getenv("SPLITRAY_KD_TEST_LARGE") == nullptr) GTEST_SKIP() << "set SPLITRAY_KD_TEST_LARGE=1 to run";
+  if (std::getenv("SPLITRAY_KD_TEST_LARGE") == nullptr)
+    GTEST_SKIP() << "set SPLITRAY_KD_TEST_LARGE=1 to run";
   SPLITRAY_REQUIRE_SHARED(sibenik, "static_sibenik/sibenik.obj");
   expect_brute_hits(load_mesh(sibenik), 5, 20000);
   expect_brute_hits(load_mesh(test::vendored_file("dragon_100k/dragon.obj.gz")), 6, 20000);

@@ -320,9 +320,16 @@ TEST(KnnTest, DegenerateInputs) {
   for (int i = 0; i < 40; ++i)
     for (int j = 0; j < 40; ++j) plane.push_back({static_cast<float>(i), static_cast<float>(j), 0});
   for (int i = 0; i < 500; ++i) line.push_back({0, static_cast<float>(i % 250) * 0.5f, 0});
-  const std::vector<Vec3> queries{Vec3(1, 2, 3), Vec3(0, 0, 0), Vec3(10.5f, 3.25f, 1),
-                                  Vec3(-5, 100, 2)};
-  for (const std::vector<Vec3>* points : {&same, &one, &plane, &line}) {
+  // Far apart: distances² near and beyond the float range (the farthest are infinite).
+  std::vector<Vec3> huge;
+  Pcg32 rng(5);
+  for (int i = 0; i < 400; ++i) {
+    const float scale = i % 2 ? 1e18f : 3e19f;
+    huge.push_back(Vec3(rng.next_float() - 0.5f, rng.next_float() - 0.5f, rng.next_float()) * scale);
+  }
+  const std::vector<Vec3> queries{Vec3(1, 2, 3),    Vec3(0, 0, 0), Vec3(10.5f, 3.25f, 1),
+                                  Vec3(-5, 100, 2), huge[7],       Vec3(1e19f, -2e19f, 5e18f)};
+  for (const std::vector<Vec3>* points : {&same, &one, &plane, &line, &huge}) {
     for (const std::string& builder : kOurBuilders) {
       const PointTree tree(*points, {.builder = builder, .leaf_size = 2});
       const int k = std::min<int>(5, static_cast<int>(points->size()));

@@ -38,8 +38,8 @@ Bvh Bvh::build(std::span<const Triangle> triangles, const std::string& builder, 
 Bvh Bvh::from_pieces(std::span<const Triangle> triangles, const BvhPiece& root) {
   Bvh bvh;
   bvh.triangle_count_ = triangles.size();
-  flatten_pieces<BvhNodeTraits>(root, bvh.nodes_, bvh.ids_, 2);
-  if (bvh.nodes_.size() == 2 && !bvh.nodes_[0].leaf() && bvh.ids_.empty()) bvh.nodes_.clear();  // nothing to hold
+  flatten_pieces<BvhNodeTraits>(root, bvh.nodes_, bvh.ids_);
+  if (bvh.ids_.empty()) bvh.nodes_.clear();  // nothing to hold
   for (const std::uint32_t id : bvh.ids_)
     if (id >= triangles.size()) throw Error("bvh", "a leaf refers to a triangle that does not exist");
   bvh.update_scene_bounds(triangles);
@@ -60,7 +60,6 @@ void Bvh::refit(std::span<const Triangle> triangles) {
   // Children always come after their parent: one backward pass is bottom-up.
   for (std::size_t i = nodes_.size(); i-- > 0;) {
     BvhNode& n = nodes_[i];
-    if (i == 1) continue;  // the unused slot
     Aabb box;
     if (n.leaf()) {
       for (std::uint32_t r = n.index; r < n.index + n.count(); ++r) box.extend(triangles[ids_[r]].bounds());

@@ -1,6 +1,6 @@
 #pragma once
-// A BVH over triangles: built as a binary tree of 32-byte nodes (children side by side,
-// pairs cache-line aligned; what builders, refit and statistics work on), traversed in its
+// A BVH over triangles: built as a binary tree of 32-byte nodes (children side by side;
+// what builders, refit and statistics work on), traversed in its
 // eight-wide collapsed form (wide_bvh.hpp: one SIMD slab test per eight children, nearest
 // child first, fixed stack; leaf triangles copied into blocks of four tested at once).
 // Refitting moves the boxes and triangles for meshes that deform with fixed topology.
@@ -18,19 +18,6 @@
 #include "splitray/accel/bvh/wide_bvh.hpp"
 
 namespace splitray {
-
-// An allocator that aligns to 64 bytes, so node pairs share a cache line.
-template <class T>
-struct CacheAligned {
-  using value_type = T;
-  CacheAligned() = default;
-  template <class U>
-  CacheAligned(const CacheAligned<U>&) {}
-  T* allocate(std::size_t n) { return static_cast<T*>(::operator new(n * sizeof(T), std::align_val_t{64})); }
-  void deallocate(T* p, std::size_t) { ::operator delete(p, std::align_val_t{64}); }
-  template <class U>
-  bool operator==(const CacheAligned<U>&) const { return true; }
-};
 
 class Bvh {
  public:
@@ -62,7 +49,7 @@ class Bvh {
  private:
   void update_scene_bounds(std::span<const Triangle> triangles);
 
-  std::vector<BvhNode, CacheAligned<BvhNode>> nodes_;  // root at 0, slot 1 unused
+  std::vector<BvhNode> nodes_;                         // the binary tree, root at 0
   WideBvh wide_;                                       // the traversal layout
   std::vector<std::uint32_t> ids_;                     // triangle id of each leaf reference
   std::size_t triangle_count_ = 0;

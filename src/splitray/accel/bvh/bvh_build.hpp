@@ -14,7 +14,7 @@
 
 namespace splitray {
 
-// Two of them fill one cache line: the children of a node are stored side by side.
+// The binary node every builder produces; the children of a node are stored side by side.
 struct alignas(32) BvhNode {
   Vec3 lo;
   std::uint32_t index = 0;  // interior: first child (the second is index + 1); leaf: first reference
@@ -61,7 +61,8 @@ struct BvhBuildOptions {
   int leaf_block = 4;            // triangles a leaf tests together (the traversal's SIMD width)
   int min_leaf = 1;              // nodes with this many references or fewer are leaves
   int max_leaf = 4;              // nodes with more are split whenever they can be
-  int bins = 32;                 // SAH bins per axis (object and spatial splits)
+  int bins = 32;                 // SAH bins per axis for object splits
+  int spatial_bins = 16;         // SBVH: bins per axis for spatial splits (as Embree)
   int max_depth = 64;            // at most 64 (the traversal stack)
   float sbvh_alpha = 1e-5f;      // SBVH: try spatial splits when overlap / root area > alpha
 
@@ -77,12 +78,12 @@ struct BvhBuildResult {
 BvhBuildResult build_bvh_binned(std::span<const Triangle> triangles, std::vector<BvhRef> refs,
                                 const BvhBuildOptions& options);
 // Spatial-split BVH (Stich, Friedrich & Dietrich 2009): binned object splits, and spatial
-// splits with reference clipping and unsplitting where the children would overlap by more
-// than sbvh_alpha of the root's area.
+// splits with reference splitting and unsplitting where the children would overlap by more
+// than sbvh_alpha of the root's area; at most twice as many references as input.
 BvhBuildResult build_bvh_sbvh(std::span<const Triangle> triangles, std::vector<BvhRef> refs,
                               const BvhBuildOptions& options);
 // Embree's custom builder (rtcBuildBVH, high quality with spatial splits through our
-// triangle clipping when `spatial`), converted to our nodes.
+// triangle splitting when `spatial`), converted to our nodes.
 BvhBuildResult build_bvh_embree(std::span<const Triangle> triangles, std::vector<BvhRef> refs,
                                 const BvhBuildOptions& options, bool spatial);
 

@@ -41,8 +41,8 @@ void count_pieces(const Piece<Node>& piece, std::size_t& nodes, std::size_t& pri
   }
 }
 
-template <class Traits, class Node, class Alloc>
-void place_piece(const Piece<Node>& piece, std::size_t slot, std::vector<Node, Alloc>& nodes,
+template <class Traits, class Node>
+void place_piece(const Piece<Node>& piece, std::size_t slot, std::vector<Node>& nodes,
                  std::vector<std::uint32_t>& prims) {
   if (piece.kids[0]) {
     const auto first = static_cast<std::uint32_t>(nodes.size());
@@ -73,19 +73,16 @@ void place_piece(const Piece<Node>& piece, std::size_t slot, std::vector<Node, A
 
 }  // namespace detail
 
-// Lays out a piece tree into `nodes` (root at 0) and `prims`. With first_pair = 2, slot 1
-// stays unused so that every pair of children starts at an even index (one cache line for
-// 32-byte nodes in a 64-byte aligned array).
-template <class Traits, class Node, class Alloc>
-void flatten_pieces(const Piece<Node>& root, std::vector<Node, Alloc>& nodes,
-                    std::vector<std::uint32_t>& prims, std::size_t first_pair = 1) {
+// Lays out a piece tree into `nodes` (root at 0) and `prims`.
+template <class Traits, class Node>
+void flatten_pieces(const Piece<Node>& root, std::vector<Node>& nodes, std::vector<std::uint32_t>& prims) {
   std::size_t node_count = 0, prim_count = 0;
   detail::count_pieces<Traits>(root, node_count, prim_count);
   nodes.clear();
   prims.clear();
-  nodes.reserve(node_count + first_pair - 1);
+  nodes.reserve(node_count);
   prims.reserve(prim_count);
-  nodes.resize(first_pair);
+  nodes.resize(1);
   detail::place_piece<Traits>(root, 0, nodes, prims);
 }
 

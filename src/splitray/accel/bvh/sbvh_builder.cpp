@@ -69,7 +69,7 @@ class SbvhBuilder {
 
   SpatialSplit find_spatial_split(const std::vector<BvhRef>& refs, const Aabb& box, std::uint64_t& evals) const {
     SpatialSplit best;
-    const int count = std::clamp(bin_count(options_, refs.size()), 2, kMaxSpatialBins);
+    const int count = std::clamp(std::min(options_.spatial_bins, static_cast<int>(2 * refs.size() + 4)), 2, kMaxSpatialBins);
     const float parent_area = std::max(box.half_area(), std::numeric_limits<float>::min());
     thread_local std::vector<SpatialBin> bins(kMaxSpatialBins);  // scratch, reset per axis below
     thread_local std::vector<Aabb> right_box(kMaxSpatialBins);

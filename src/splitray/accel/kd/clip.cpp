@@ -16,7 +16,9 @@ Aabb clip_triangle_bounds(const Triangle& triangle, const Aabb& box) {
       const float plane = side == 0 ? box.lo[axis] : box.hi[axis];
       // A plane the whole triangle is inside of leaves the polygon as it is: skip it.
       if (side == 0 ? bounds.lo[axis] >= plane : bounds.hi[axis] <= plane) continue;
-      const auto inside = [&](const Vec3& p) { return side == 0 ? p[axis] >= plane : p[axis] <= plane; };
+      const auto inside = [&](const Vec3& p) {
+        return side == 0 ? p[axis] >= plane : p[axis] <= plane;
+      };
       const std::array<Vec3, 9>& poly = buffers[current];
       std::array<Vec3, 9>& next = buffers[1 - current];
       int out = 0;

@@ -31,7 +31,8 @@ KdBuilder kd_builder(const std::string& name) {
   for (const NamedBuilder& b : kBuilders)
     if (name == b.name) return b.build;
   std::string known;
-  for (const NamedBuilder& b : kBuilders) known += (known.empty() ? "" : ", ") + std::string(b.name);
+  for (const NamedBuilder& b : kBuilders)
+    known += (known.empty() ? "" : ", ") + std::string(b.name);
   throw Error("--builder", "'" + name + "' is not a builder of --accel kd (known: " + known + ")");
 }
 
@@ -43,7 +44,8 @@ std::unique_ptr<Accel> make_kd(std::span<const Triangle> triangles, const BuildC
   for (std::size_t i = 0; i < triangles.size(); ++i) {
     const Triangle& t = triangles[i];
     if (!is_finite(t.v0) || !is_finite(t.v1) || !is_finite(t.v2))
-      throw Error("--accel kd", "triangle " + std::to_string(i) + " has a NaN or infinite coordinate");
+      throw Error("--accel kd",
+                  "triangle " + std::to_string(i) + " has a NaN or infinite coordinate");
   }
   ThreadLimit limit(resolved.threads);
   const Timer timer;
@@ -62,7 +64,8 @@ KdAccel::KdAccel(KdTree tree, std::span<const Triangle> triangles, const BuildCo
   if (tree_.nodes.empty()) throw Error("--accel kd", "the tree has no nodes");
   stats_ = kd_tree_stats(tree_, config);
   if (stats_.max_depth > kKdDepthLimit)  // the traversal stack holds one entry per level
-    throw Error("--accel kd", "the tree is deeper than " + std::to_string(kKdDepthLimit) + " levels");
+    throw Error("--accel kd",
+                "the tree is deeper than " + std::to_string(kKdDepthLimit) + " levels");
   leaf_triangles_.reserve(tree_.prim_ids.size());
   for (const std::uint32_t id : tree_.prim_ids) {
     if (id >= triangles.size()) throw Error("--accel kd", "a leaf refers to a missing triangle");

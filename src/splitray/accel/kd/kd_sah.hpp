@@ -16,17 +16,20 @@ struct KdSplitCost {
   double traversal, intersection, empty_factor;
 
   explicit KdSplitCost(const BuildConfig& c)
-      : traversal(c.traversal_cost), intersection(c.intersection_cost), empty_factor(1.0 - c.empty_bonus) {}
+      : traversal(c.traversal_cost),
+        intersection(c.intersection_cost),
+        empty_factor(1.0 - c.empty_bonus) {}
 
   double leaf(std::size_t prims) const { return intersection * static_cast<double>(prims); }
 
   // Cost of cutting `box` at `position` on `axis` with n_below / n_above primitives.
-  double split(const Aabb& box, int axis, float position, std::size_t n_below, std::size_t n_above) const {
+  double split(const Aabb& box, int axis, float position, std::size_t n_below,
+               std::size_t n_above) const {
     const Vec3 e = box.extent();
     const int a1 = axis == 2 ? 0 : axis + 1, a2 = a1 == 2 ? 0 : a1 + 1;
     const double inv_area = 1.0 / box.half_area();
-    const double cap = static_cast<double>(e[a1]) * e[a2];      // the face cut by the plane
-    const double ring = static_cast<double>(e[a1]) + e[a2];     // perimeter of that face / 2
+    const double cap = static_cast<double>(e[a1]) * e[a2];   // the face cut by the plane
+    const double ring = static_cast<double>(e[a1]) + e[a2];  // perimeter of that face / 2
     const double below = position - box.lo[axis], above = box.hi[axis] - position;
     const double p_below = (cap + below * ring) * inv_area;
     const double p_above = (cap + above * ring) * inv_area;
@@ -39,7 +42,8 @@ struct KdSplitCost {
   // gives bit-identical costs.
   class Axis {
    public:
-    Axis(const KdSplitCost& cost, const Aabb& box, int axis) : cost_(cost), lo_(box.lo[axis]), hi_(box.hi[axis]) {
+    Axis(const KdSplitCost& cost, const Aabb& box, int axis)
+        : cost_(cost), lo_(box.lo[axis]), hi_(box.hi[axis]) {
       const Vec3 e = box.extent();
       const int a1 = axis == 2 ? 0 : axis + 1, a2 = a1 == 2 ? 0 : a1 + 1;
       inv_area_ = 1.0 / box.half_area();
@@ -51,8 +55,9 @@ struct KdSplitCost {
       const double p_below = (cap_ + below * ring_) * inv_area_;
       const double p_above = (cap_ + above * ring_) * inv_area_;
       const double lambda = (n_below == 0 || n_above == 0) ? cost_.empty_factor : 1.0;
-      return lambda * (cost_.traversal + cost_.intersection * (p_below * static_cast<double>(n_below) +
-                                                               p_above * static_cast<double>(n_above)));
+      return lambda *
+             (cost_.traversal + cost_.intersection * (p_below * static_cast<double>(n_below) +
+                                                      p_above * static_cast<double>(n_above)));
     }
 
    private:
@@ -68,7 +73,8 @@ inline constexpr int kKdDepthLimit = 64;
 // 8 + 1.3 log2(N) levels, as in pbrt and Wald & Havran, unless the config says otherwise.
 inline int kd_max_depth(const BuildConfig& config, std::size_t prims) {
   if (config.max_depth > 0) return std::min(config.max_depth, kKdDepthLimit);
-  const double auto_depth = 8 + 1.3 * std::log2(static_cast<double>(std::max<std::size_t>(prims, 1)));
+  const double auto_depth =
+      8 + 1.3 * std::log2(static_cast<double>(std::max<std::size_t>(prims, 1)));
   return std::min(static_cast<int>(std::lround(auto_depth)), kKdDepthLimit);
 }
 

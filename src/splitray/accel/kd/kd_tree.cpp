@@ -31,7 +31,8 @@ void flatten(const KdBuildNode& node, KdTree& tree) {
   tree.nodes.push_back(KdNode::interior(node.axis, node.split, 0));
   flatten(*node.below, tree);
   check_index(tree.nodes.size(), "nodes");
-  tree.nodes[index] = KdNode::interior(node.axis, node.split, static_cast<std::uint32_t>(tree.nodes.size()));
+  tree.nodes[index] =
+      KdNode::interior(node.axis, node.split, static_cast<std::uint32_t>(tree.nodes.size()));
   flatten(*node.above, tree);
 }
 
@@ -76,7 +77,8 @@ AccelStats kd_tree_stats(const KdTree& tree, const BuildConfig& config) {
   AccelStats& s = walk.stats;
   s.nodes = tree.nodes.size();
   const std::size_t filled = s.leaves - s.empty_leaves;
-  s.mean_leaf_prims = filled > 0 ? static_cast<double>(s.prim_refs) / static_cast<double>(filled) : 0.0;
+  s.mean_leaf_prims =
+      filled > 0 ? static_cast<double>(s.prim_refs) / static_cast<double>(filled) : 0.0;
   s.mean_leaf_depth = s.leaves > 0 ? walk.leaf_depth_sum / static_cast<double>(s.leaves) : 0.0;
   s.bytes = tree.nodes.size() * sizeof(KdNode) + tree.prim_ids.size() * sizeof(std::uint32_t);
   s.sah_cost = walk.cost.value();

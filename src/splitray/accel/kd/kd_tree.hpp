@@ -13,7 +13,7 @@ namespace splitray {
 // the index of the above child (interior) or the primitive count (leaf).
 struct KdNode {
   union {
-    float split;               // interior
+    float split;                // interior
     std::uint32_t prim_offset;  // leaf: first reference in KdTree::prim_ids
   };
   std::uint32_t bits;

@@ -119,7 +119,12 @@ class SahBuilder {
     if (n >= kParallelPrims) {
       tbb::task_group group;
       group.run([&] { result->below = build(std::move(below), depth + 1); });
-      result->above = build(std::move(above), depth + 1);
+      try {
+        result->above = build(std::move(above), depth + 1);
+      } catch (...) {
+        group.wait();  // the task refers to this frame
+        throw;
+      }
       group.wait();
     } else {
       result->below = build(std::move(below), depth + 1);
@@ -262,7 +267,8 @@ class SahBuilder {
   // ones) and trimmed after, so one pass suffices; the slack lives only until the child is
   // split in turn.
   static void fill_child(const Node& node, const std::vector<std::uint8_t>& side, Side keep,
-                         const std::vector<std::uint32_t>& new_index, const AxisEvents& fresh, Node& child) {
+                         const std::vector<std::uint32_t>& new_index, const AxisEvents& fresh,
+                         Node& child) {
     child.events.resize(node.events.size() + fresh[0].size() + fresh[1].size() + fresh[2].size());
     Event* const first = child.events.data();
     Event* out = first;
@@ -301,7 +307,8 @@ KdBuildResult build_kd_sah(std::span<const Triangle> triangles, const Aabb& boun
   AxisEvents events;
   for (std::size_t i = 0; i < triangles.size(); ++i) {
     Aabb b = triangles[i].bounds();
-    if (!(bounds.contains(b.lo) && bounds.contains(b.hi))) b = clip_triangle_bounds(triangles[i], bounds);
+    if (!(bounds.contains(b.lo) && bounds.contains(b.hi)))
+      b = clip_triangle_bounds(triangles[i], bounds);
     if (b.empty()) continue;  // outside the root cell
     const auto index = static_cast<std::uint32_t>(root.tris.size());
     root.tris.push_back(static_cast<std::uint32_t>(i));
