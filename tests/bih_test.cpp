@@ -1,10 +1,11 @@
 // Bounding interval hierarchy: every builder's answers must be exactly brute's
 // (hierarchy_oracle.hpp), the tree must not depend on the thread count, and the one-child
 // nodes (the fifth traversal case) must be built where they pay without changing answers.
+#include "splitray/accel/bih/bih.hpp"
+
 #include <cstring>
 
 #include "hierarchy_oracle.hpp"
-#include "splitray/accel/bih/bih.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/core/parallel.hpp"
 
@@ -19,11 +20,14 @@ void check_every_builder(const Reference& ref, const std::string& mesh) {
     BuildConfig config;
     config.builder = builder;
     const auto accel = make_accel("bih", ref.tris, config);
-    expect_same_answers(ref.brute, answers_of(*accel, ref.rays), ref.rays, mesh + " bih " + builder);
+    expect_same_answers(ref.brute, answers_of(*accel, ref.rays), ref.rays,
+                        mesh + " bih " + builder);
   }
 }
 
-TEST(Bih, EveryBuilderMatchesBruteOnHorse) { check_every_builder(reference(vendored_file(kHorse)), "horse"); }
+TEST(Bih, EveryBuilderMatchesBruteOnHorse) {
+  check_every_builder(reference(vendored_file(kHorse)), "horse");
+}
 
 TEST(Bih, EveryBuilderMatchesBruteOnSibenik) {
   SPLITRAY_REQUIRE_SHARED(path, "static_sibenik/sibenik.obj");
@@ -62,7 +66,8 @@ TEST(Bih, DegenerateInputsMatchBrute) {
   for (int i = 0; i < 40; ++i) {
     const float f = 1e-3f * static_cast<float>(i);
     clusters.push_back({{f, 0, 0}, {f + 1e-3f, 0, 0}, {f, 1e-3f, 0}});
-    clusters.push_back({{1000 + f, 1000, 1000}, {1000 + f + 1e-3f, 1000, 1000}, {1000 + f, 1000, 1000.001f}});
+    clusters.push_back(
+        {{1000 + f, 1000, 1000}, {1000 + f + 1e-3f, 1000, 1000}, {1000 + f, 1000, 1000.001f}});
   }
   cases.push_back({"far clusters", clusters});
   for (const auto& [name, tris] : cases) {
@@ -87,7 +92,8 @@ TEST(Bih, TreeAndHitsDoNotDependOnThreadCount) {
     std::vector<Answers> answers;
     for (const int threads : {1, 2}) {
       ThreadLimit limit(threads);
-      trees.push_back(Bih::build(ref.tris, BihBuildOptions::from({}, parse_bih_heuristic(builder))));
+      trees.push_back(
+          Bih::build(ref.tris, BihBuildOptions::from({}, parse_bih_heuristic(builder))));
       answers.push_back(answers_of_structure(trees.back(), ref.rays));
     }
     const auto a = trees[0].nodes(), b = trees[1].nodes();
@@ -108,14 +114,17 @@ TEST(Bih, OneChildNodesCutEmptySpaceWithoutChangingAnswers) {
     const Bih without = Bih::build(ref.tris, options);
     std::size_t one_child = 0, one_child_without = 0;
     for (const BihNode& n : with.nodes()) one_child += !n.leaf() && n.one_child() ? 1 : 0;
-    for (const BihNode& n : without.nodes()) one_child_without += !n.leaf() && n.one_child() ? 1 : 0;
+    for (const BihNode& n : without.nodes())
+      one_child_without += !n.leaf() && n.one_child() ? 1 : 0;
     EXPECT_GT(one_child, 0u) << builder;
     EXPECT_EQ(one_child_without, 0u) << builder;
     AccelStats with_stats, without_stats;
     with.fill_stats(with_stats, 15, 20);
     without.fill_stats(without_stats, 15, 20);
-    EXPECT_LT(*with_stats.sah_cost, *without_stats.sah_cost) << builder << ": cutting empty space must pay";
-    expect_same_answers(ref.brute, answers_of_structure(without, ref.rays), ref.rays, "four cases only " + builder);
+    EXPECT_LT(*with_stats.sah_cost, *without_stats.sah_cost)
+        << builder << ": cutting empty space must pay";
+    expect_same_answers(ref.brute, answers_of_structure(without, ref.rays), ref.rays,
+                        "four cases only " + builder);
   }
 }
 

@@ -1,9 +1,10 @@
 // BVH builders (binned, sbvh, Embree's custom builder), refit, and the kd-top -> BVH
 // conversion: every answer must be exactly brute's (hierarchy_oracle.hpp).
+#include "splitray/accel/bvh/bvh.hpp"
+
 #include <cstring>
 
 #include "hierarchy_oracle.hpp"
-#include "splitray/accel/bvh/bvh.hpp"
 #include "splitray/accel/bvh/kd_top_bvh.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/core/parallel.hpp"
@@ -18,13 +19,17 @@ void check_every_builder(const Reference& ref, const std::string& mesh) {
     BuildConfig config;
     config.builder = builder;
     const auto accel = make_accel("bvh", ref.tris, config);
-    expect_same_answers(ref.brute, answers_of(*accel, ref.rays), ref.rays, mesh + " bvh " + builder);
+    expect_same_answers(ref.brute, answers_of(*accel, ref.rays), ref.rays,
+                        mesh + " bvh " + builder);
   }
   const Bvh embree = Bvh::build(ref.tris, "embree", BvhBuildOptions{});
-  expect_same_answers(ref.brute, answers_of_structure(embree, ref.rays), ref.rays, mesh + " bvh embree");
+  expect_same_answers(ref.brute, answers_of_structure(embree, ref.rays), ref.rays,
+                      mesh + " bvh embree");
 }
 
-TEST(Bvh, EveryBuilderMatchesBruteOnHorse) { check_every_builder(reference(vendored_file(kHorse)), "horse"); }
+TEST(Bvh, EveryBuilderMatchesBruteOnHorse) {
+  check_every_builder(reference(vendored_file(kHorse)), "horse");
+}
 
 TEST(Bvh, EveryBuilderMatchesBruteOnSibenik) {
   SPLITRAY_REQUIRE_SHARED(path, "static_sibenik/sibenik.obj");
@@ -93,8 +98,8 @@ TEST(Bvh, TreeAndHitsDoNotDependOnThreadCount) {
     const auto a = trees[0].nodes(), b = trees[1].nodes();
     ASSERT_EQ(a.size(), b.size()) << builder;
     EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size_bytes()), 0) << builder;
-    EXPECT_TRUE(std::equal(trees[0].prim_ids().begin(), trees[0].prim_ids().end(), trees[1].prim_ids().begin(),
-                           trees[1].prim_ids().end()))
+    EXPECT_TRUE(std::equal(trees[0].prim_ids().begin(), trees[0].prim_ids().end(),
+                           trees[1].prim_ids().begin(), trees[1].prim_ids().end()))
         << builder;
     expect_same_answers(answers[0], answers[1], ref.rays, "1 vs 2 threads " + builder);
   }
@@ -122,7 +127,8 @@ TEST(Bvh, StatsDescribeTheTree) {
     stats[builder] = s;
   }
   EXPECT_EQ(stats["binned"].prim_refs, ref.tris.size());
-  EXPECT_GT(stats["sbvh"].prim_refs, ref.tris.size());  // spatial splits reference some triangles twice
+  EXPECT_GT(stats["sbvh"].prim_refs,
+            ref.tris.size());  // spatial splits reference some triangles twice
   EXPECT_LT(*stats["sbvh"].sah_cost, *stats["binned"].sah_cost);
 }
 
@@ -157,7 +163,8 @@ std::vector<Triangle> deform(const std::vector<Triangle>& tris) {
   return out;
 }
 
-void check_refit(const std::vector<Triangle>& before, const std::vector<Triangle>& after, const std::string& what) {
+void check_refit(const std::vector<Triangle>& before, const std::vector<Triangle>& after,
+                 const std::string& what) {
   const std::vector<Ray> rays = hard_rays(after, 20000, 11);
   const Answers brute = brute_answers(after, rays);
   for (const std::string builder : {"binned", "sbvh"}) {
@@ -230,7 +237,8 @@ void expect_every_triangle_reachable(const Bvh& bvh, const Reference& mesh, cons
 
 TEST(KdTopBvh, EveryTriangleStaysReachable) {
   const Reference& ref = reference(vendored_file(kHorse));
-  for (const LeafExpander expander : {LeafExpander::binned, LeafExpander::sbvh, LeafExpander::embree}) {
+  for (const LeafExpander expander :
+       {LeafExpander::binned, LeafExpander::sbvh, LeafExpander::embree}) {
     TopBvhStats stats;
     const Bvh bvh = build_kd_top_bvh(ref.tris, 5, expander, {}, &stats);
     EXPECT_EQ(stats.top_depth, 5);
@@ -261,7 +269,8 @@ TEST(KdTopBvh, GivenBoxesBecomeTheTop) {
     for (int j = 0; j < 2; ++j)
       for (int k = 0; k < 2; ++k) {
         Aabb cell = box;
-        cell.lo = box.lo + Vec3{e.x * static_cast<float>(i) / 3, e.y * static_cast<float>(j) / 2, e.z * static_cast<float>(k) / 2};
+        cell.lo = box.lo + Vec3{e.x * static_cast<float>(i) / 3, e.y * static_cast<float>(j) / 2,
+                                e.z * static_cast<float>(k) / 2};
         cell.hi = {i == 2 ? box.hi.x : box.lo.x + e.x * static_cast<float>(i + 1) / 3,
                    j == 1 ? box.hi.y : box.lo.y + e.y * static_cast<float>(j + 1) / 2,
                    k == 1 ? box.hi.z : box.lo.z + e.z * static_cast<float>(k + 1) / 2};
@@ -274,7 +283,9 @@ TEST(KdTopBvh, GivenBoxesBecomeTheTop) {
   expect_same_answers(ref.brute, answers_of_structure(bvh, ref.rays), ref.rays, "grid top horse");
 
   boxes.erase(boxes.begin());  // a hole: some triangles are in no cell
-  EXPECT_THROW(build_top_bvh(ref.tris, top_cells_from_boxes(boxes), LeafExpander::binned, BvhBuildOptions{}), Error);
+  EXPECT_THROW(
+      build_top_bvh(ref.tris, top_cells_from_boxes(boxes), LeafExpander::binned, BvhBuildOptions{}),
+      Error);
 }
 
 }  // namespace

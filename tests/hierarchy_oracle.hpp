@@ -20,7 +20,9 @@
 
 namespace splitray::test {
 
-inline std::vector<Triangle> load_triangles(const std::string& path) { return load_mesh(path).triangles(); }
+inline std::vector<Triangle> load_triangles(const std::string& path) {
+  return load_mesh(path).triangles();
+}
 
 inline Aabb bounds_of(const std::vector<Triangle>& tris) {
   Aabb b;
@@ -31,7 +33,8 @@ inline Aabb bounds_of(const std::vector<Triangle>& tris) {
 // Rays that stress a hierarchy: from inside the bounds in every direction; from outside
 // toward points on triangles, their vertices and edges (shared by neighbours); parallel to
 // the axes, also lying in planes through vertices; short segments with tmin > 0.
-inline std::vector<Ray> hard_rays(const std::vector<Triangle>& tris, std::size_t count, std::uint64_t seed) {
+inline std::vector<Ray> hard_rays(const std::vector<Triangle>& tris, std::size_t count,
+                                  std::uint64_t seed) {
   Pcg32 rng(seed);
   const Aabb box = bounds_of(tris);
   const Vec3 center = box.center(), extent = box.extent();
@@ -41,7 +44,8 @@ inline std::vector<Ray> hard_rays(const std::vector<Triangle>& tris, std::size_t
                 box.lo.z + extent.z * rng.next_float()};
   };
   const auto outside = [&] {
-    return center + uniform_sphere(rng.next_float(), rng.next_float()) * (radius * (0.6f + 1.5f * rng.next_float()));
+    return center + uniform_sphere(rng.next_float(), rng.next_float()) *
+                        (radius * (0.6f + 1.5f * rng.next_float()));
   };
   const auto random_tri = [&]() -> const Triangle& { return tris[rng.next_u32() % tris.size()]; };
   std::vector<Ray> rays;
@@ -106,7 +110,8 @@ inline std::vector<Ray> hard_rays(const std::vector<Triangle>& tris, std::size_t
 
 // Rays from off the surface aimed at the centroid of every `stride`-th triangle: every
 // triangle must stay reachable.
-inline std::vector<Ray> centroid_rays(const std::vector<Triangle>& tris, std::uint64_t seed, std::size_t stride = 1) {
+inline std::vector<Ray> centroid_rays(const std::vector<Triangle>& tris, std::uint64_t seed,
+                                      std::size_t stride = 1) {
   Pcg32 rng(seed);
   const Aabb box = bounds_of(tris);
   const float radius = length(box.extent());
@@ -165,27 +170,29 @@ Answers answers_of_structure(const Structure& s, const std::vector<Ray>& rays) {
 }
 
 inline bool same_hit(const Hit& a, const Hit& b) {
-  return a.prim == b.prim && std::bit_cast<std::uint32_t>(a.t) == std::bit_cast<std::uint32_t>(b.t) &&
+  return a.prim == b.prim &&
+         std::bit_cast<std::uint32_t>(a.t) == std::bit_cast<std::uint32_t>(b.t) &&
          std::bit_cast<std::uint32_t>(a.u) == std::bit_cast<std::uint32_t>(b.u) &&
          std::bit_cast<std::uint32_t>(a.v) == std::bit_cast<std::uint32_t>(b.v);
 }
 
 // Every closest hit identical (prim, bit-identical t, u, v) and every any-hit answer equal.
-inline void expect_same_answers(const Answers& expected, const Answers& got, const std::vector<Ray>& rays,
-                                const std::string& what) {
+inline void expect_same_answers(const Answers& expected, const Answers& got,
+                                const std::vector<Ray>& rays, const std::string& what) {
   ASSERT_EQ(expected.hits.size(), got.hits.size());
   std::size_t wrong_hits = 0, wrong_occluded = 0, found = 0;
   for (std::size_t i = 0; i < rays.size(); ++i) {
     found += expected.hits[i].found() ? 1 : 0;
     if (!same_hit(expected.hits[i], got.hits[i])) {
       if (wrong_hits++ < 5)
-        ADD_FAILURE() << what << ": ray " << i << " expected prim " << expected.hits[i].prim << " t "
-                      << expected.hits[i].t << ", got prim " << got.hits[i].prim << " t " << got.hits[i].t;
+        ADD_FAILURE() << what << ": ray " << i << " expected prim " << expected.hits[i].prim
+                      << " t " << expected.hits[i].t << ", got prim " << got.hits[i].prim << " t "
+                      << got.hits[i].t;
     }
     if (expected.occluded[i] != got.occluded[i]) {
       if (wrong_occluded++ < 5)
-        ADD_FAILURE() << what << ": ray " << i << " occluded expected " << int(expected.occluded[i]) << ", got "
-                      << int(got.occluded[i]);
+        ADD_FAILURE() << what << ": ray " << i << " occluded expected " << int(expected.occluded[i])
+                      << ", got " << int(got.occluded[i]);
     }
   }
   EXPECT_EQ(wrong_hits, 0u) << what;

@@ -21,7 +21,8 @@ struct BihNode {
   // bits 0-1: axis, 3 = leaf. Interior: bit 2 = one child, bits 3-31 = first child (the
   // second, if any, follows it). Leaf: bits 2-31 = first primitive, clip[0] holds the count.
   std::uint32_t bits = 3;
-  float clip[2] = {0, 0};  // interior: left max and right min (one child: its lower and upper bound)
+  float clip[2] = {0,
+                   0};  // interior: left max and right min (one child: its lower and upper bound)
 
   bool leaf() const { return (bits & 3u) == 3u; }
   int axis() const { return static_cast<int>(bits & 3u); }
@@ -55,10 +56,10 @@ struct BihBuildOptions {
   BihHeuristic heuristic = BihHeuristic::global;
   float traversal_cost = 15;
   float intersection_cost = 20;
-  int leaf_size = 1;       // leaves hold at most this many primitives (unless the depth limit hits)
-  int max_leaf_sah = 8;    // sah: nodes up to this size become leaves when that is cheaper
-  int bins = 64;           // sah
-  int max_depth = 64;      // at most 64 (the traversal stack)
+  int leaf_size = 1;     // leaves hold at most this many primitives (unless the depth limit hits)
+  int max_leaf_sah = 8;  // sah: nodes up to this size become leaves when that is cheaper
+  int bins = 64;         // sah
+  int max_depth = 64;    // at most 64 (the traversal stack)
   bool one_child_nodes = true;
 
   static BihBuildOptions from(const BuildConfig& config, BihHeuristic heuristic);
@@ -78,7 +79,7 @@ class Bih {
   std::uint64_t cost_evals() const { return cost_evals_; }
 
  private:
-  std::vector<BihNode> nodes_;   // root at 0
+  std::vector<BihNode> nodes_;      // root at 0
   std::vector<std::uint32_t> ids_;  // triangle id of each leaf slot
   std::vector<Triangle> tris_;      // triangles in leaf order
   Aabb scene_;

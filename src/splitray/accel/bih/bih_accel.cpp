@@ -10,7 +10,8 @@ namespace {
 class BihAccel final : public Accel {
  public:
   BihAccel(std::span<const Triangle> triangles, const BuildConfig& config) {
-    const BihBuildOptions options = BihBuildOptions::from(config, parse_bih_heuristic(config.builder));
+    const BihBuildOptions options =
+        BihBuildOptions::from(config, parse_bih_heuristic(config.builder));
     Timer timer;
     bih_ = Bih::build(triangles, options);
     stats_.build_ms = timer.ms();

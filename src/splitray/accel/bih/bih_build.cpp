@@ -4,8 +4,8 @@
 #include <tbb/parallel_invoke.h>
 
 #include <algorithm>
-#include <bit>
 #include <atomic>
+#include <bit>
 #include <cmath>
 #include <limits>
 
@@ -51,7 +51,8 @@ Aabb with_interval(Aabb box, int axis, float lo, float hi) {
 
 class BihBuilder {
  public:
-  BihBuilder(std::vector<BvhRef>& refs, const BihBuildOptions& options) : refs_(refs), options_(options) {}
+  BihBuilder(std::vector<BvhRef>& refs, const BihBuildOptions& options)
+      : refs_(refs), options_(options) {}
 
   std::unique_ptr<BihPiece> build_piece(const Task& task) {
     auto piece = std::make_unique<BihPiece>();
@@ -66,15 +67,15 @@ class BihBuilder {
  private:
   struct Split {
     int axis = -1;
-    std::size_t n_left = 0;       // after partitioning
+    std::size_t n_left = 0;  // after partitioning
     RefBounds left, right;
-    Aabb left_cell, right_cell;   // global heuristic
+    Aabb left_cell, right_cell;  // global heuristic
   };
 
   // Moves references with goes_left to the front; the bounds of both sides on the way.
   template <class GoesLeft>
-  std::size_t partition(std::size_t begin, std::size_t end, const GoesLeft& goes_left, RefBounds& left,
-                        RefBounds& right) {
+  std::size_t partition(std::size_t begin, std::size_t end, const GoesLeft& goes_left,
+                        RefBounds& left, RefBounds& right) {
     RefBoundsAccumulator l, r;
     std::size_t i = begin, j = end;
     for (;;) {
@@ -95,7 +96,8 @@ class BihBuilder {
     Split s;
     s.axis = axis;
     s.n_left = partition(
-        t.begin, t.end, [&](const BvhRef& r) { return (r.box.lo[axis] + r.box.hi[axis]) * 0.5f < plane; }, s.left,
+        t.begin, t.end,
+        [&](const BvhRef& r) { return (r.box.lo[axis] + r.box.hi[axis]) * 0.5f < plane; }, s.left,
         s.right);
     return s;
   }
@@ -152,9 +154,12 @@ class BihBuilder {
     const int axis = t.bounds.centers.longest_axis();
     const std::size_t mid = t.begin + (t.end - t.begin) / 2;
     const auto center = [axis](const BvhRef& r) { return r.box.lo[axis] + r.box.hi[axis]; };
-    std::nth_element(refs_.begin() + static_cast<std::ptrdiff_t>(t.begin), refs_.begin() + static_cast<std::ptrdiff_t>(mid),
+    std::nth_element(refs_.begin() + static_cast<std::ptrdiff_t>(t.begin),
+                     refs_.begin() + static_cast<std::ptrdiff_t>(mid),
                      refs_.begin() + static_cast<std::ptrdiff_t>(t.end),
-                     [&](const BvhRef& a, const BvhRef& b) { return center(a) < center(b) || (center(a) == center(b) && a.prim < b.prim); });
+                     [&](const BvhRef& a, const BvhRef& b) {
+                       return center(a) < center(b) || (center(a) == center(b) && a.prim < b.prim);
+                     });
     Split s;
     s.axis = axis;
     s.n_left = mid - t.begin;
@@ -170,11 +175,14 @@ class BihBuilder {
       std::uint32_t count;
     };
     const std::size_t n = t.end - t.begin;
-    const CenterBins map(t.bounds.centers, static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(options_.bins), 2 * n + 4)));
+    const CenterBins map(t.bounds.centers,
+                         static_cast<int>(std::min<std::size_t>(
+                             static_cast<std::size_t>(options_.bins), 2 * n + 4)));
     Bin bins[3][kMaxBins];
     for (auto& axis : bins)
       for (int i = 0; i < map.count; ++i)
-        axis[i] = {-std::numeric_limits<float>::infinity(), std::numeric_limits<float>::infinity(), 0};
+        axis[i] = {-std::numeric_limits<float>::infinity(), std::numeric_limits<float>::infinity(),
+                   0};
     for (std::size_t i = t.begin; i < t.end; ++i) {
       const BvhRef& r = refs_[i];
       for (int a = 0; a < 3; ++a) {
@@ -199,11 +207,14 @@ class BihBuilder {
         n_left += bins[a][i].count;
         if (n_left == 0 || n_left == n) continue;
         ++evals;
-        const float lh = std::min(left_max, t.region.hi[a]), rl = std::max(right_min[i + 1], t.region.lo[a]);
+        const float lh = std::min(left_max, t.region.hi[a]),
+                    rl = std::max(right_min[i + 1], t.region.lo[a]);
         const float al = with_interval(t.region, a, t.region.lo[a], lh).half_area();
         const float ar = with_interval(t.region, a, rl, t.region.hi[a]).half_area();
-        const float cost = options_.traversal_cost +
-                           options_.intersection_cost * (al * static_cast<float>(n_left) + ar * static_cast<float>(n - n_left)) / area;
+        const float cost =
+            options_.traversal_cost +
+            options_.intersection_cost *
+                (al * static_cast<float>(n_left) + ar * static_cast<float>(n - n_left)) / area;
         if (cost < best_cost) {
           best_cost = cost;
           best_axis = a;
@@ -216,12 +227,14 @@ class BihBuilder {
     Split s;
     s.axis = best_axis;
     s.n_left = partition(
-        t.begin, t.end, [&](const BvhRef& r) { return map.bin(r, best_axis) <= best_bin; }, s.left, s.right);
+        t.begin, t.end, [&](const BvhRef& r) { return map.bin(r, best_axis) <= best_bin; }, s.left,
+        s.right);
     return s;
   }
 
   void make_leaf(BihPiece& piece, std::size_t slot, const Task& t) {
-    piece.nodes[slot] = BihNode::make_leaf(static_cast<std::uint32_t>(t.begin), static_cast<std::uint32_t>(t.end - t.begin));
+    piece.nodes[slot] = BihNode::make_leaf(static_cast<std::uint32_t>(t.begin),
+                                           static_cast<std::uint32_t>(t.end - t.begin));
   }
 
   // The fifth case: a one-child node cutting the region down to the references' extent on
@@ -244,15 +257,19 @@ class BihBuilder {
     // A rough cost of the subtree below: one traversal step per level, one leaf.
     const std::size_t n = t.end - t.begin;
     const float subtree = options_.traversal_cost * static_cast<float>(std::bit_width(n)) +
-                          options_.intersection_cost * static_cast<float>(std::min<std::size_t>(n, static_cast<std::size_t>(std::max(options_.leaf_size, 1))));
+                          options_.intersection_cost *
+                              static_cast<float>(std::min<std::size_t>(
+                                  n, static_cast<std::size_t>(std::max(options_.leaf_size, 1))));
     return (1.0f - best_area / area) * subtree > options_.traversal_cost ? best : -1;
   }
 
   void build(BihPiece& piece, std::size_t slot, const Task& t, std::uint64_t& evals) {
     const std::size_t n = t.end - t.begin;
-    if (n <= static_cast<std::size_t>(options_.leaf_size) || t.depth >= options_.max_depth) return make_leaf(piece, slot, t);
+    if (n <= static_cast<std::size_t>(options_.leaf_size) || t.depth >= options_.max_depth)
+      return make_leaf(piece, slot, t);
     const Aabb& centers = t.bounds.centers;
-    const bool coincident = !(centers.hi.x > centers.lo.x || centers.hi.y > centers.lo.y || centers.hi.z > centers.lo.z);
+    const bool coincident = !(centers.hi.x > centers.lo.x || centers.hi.y > centers.lo.y ||
+                              centers.hi.z > centers.lo.z);
     if (coincident && n <= kHalveCoincident) return make_leaf(piece, slot, t);
 
     if (options_.one_child_nodes && t.depth + 1 < options_.max_depth) {
@@ -278,12 +295,19 @@ class BihBuilder {
     if (coincident) {  // halve the list: both children overlap, but the recursion ends
       s.axis = 0;
       s.n_left = n / 2;
-      for (std::size_t i = t.begin; i < t.end; ++i) (i < t.begin + s.n_left ? s.left : s.right).extend(refs_[i]);
+      for (std::size_t i = t.begin; i < t.end; ++i)
+        (i < t.begin + s.n_left ? s.left : s.right).extend(refs_[i]);
     } else {
       switch (options_.heuristic) {
-        case BihHeuristic::global: s = split_global(t); break;
-        case BihHeuristic::median: s = split_median(t); break;
-        case BihHeuristic::middle: s = split_middle(t); break;
+        case BihHeuristic::global:
+          s = split_global(t);
+          break;
+        case BihHeuristic::median:
+          s = split_median(t);
+          break;
+        case BihHeuristic::middle:
+          s = split_middle(t);
+          break;
         case BihHeuristic::sah:
           s = split_sah(t, evals, n <= static_cast<std::size_t>(options_.max_leaf_sah));
           if (s.axis < 0) return make_leaf(piece, slot, t);
@@ -300,7 +324,8 @@ class BihBuilder {
 
     if (slot == 0 && piece.nodes.size() == 1 && n >= kTaskRefs) {
       piece.nodes[0] = BihNode::make_interior(axis, left_max, right_min);
-      tbb::parallel_invoke([&] { piece.kids[0] = build_piece(left); }, [&] { piece.kids[1] = build_piece(right); });
+      tbb::parallel_invoke([&] { piece.kids[0] = build_piece(left); },
+                           [&] { piece.kids[1] = build_piece(right); });
       return;
     }
     const auto pair = static_cast<std::uint32_t>(piece.nodes.size());
@@ -322,7 +347,8 @@ BihHeuristic parse_bih_heuristic(const std::string& name) {
   if (name == "median") return BihHeuristic::median;
   if (name == "middle") return BihHeuristic::middle;
   if (name == "sah") return BihHeuristic::sah;
-  throw Error("--builder", "'" + name + "' is not a BIH builder (known: global, median, middle, sah)");
+  throw Error("--builder",
+              "'" + name + "' is not a BIH builder (known: global, median, middle, sah)");
 }
 
 BihBuildOptions BihBuildOptions::from(const BuildConfig& config, BihHeuristic heuristic) {

@@ -16,8 +16,9 @@ namespace {
 constexpr int kStackSize = 64;
 
 template <bool AnyHit>
-bool traverse(std::span<const BihNode> nodes, std::span<const Triangle> tris, std::span<const std::uint32_t> ids,
-              const Aabb& scene, float magnitude, const Ray& ray, Hit& hit) {
+bool traverse(std::span<const BihNode> nodes, std::span<const Triangle> tris,
+              std::span<const std::uint32_t> ids, const Aabb& scene, float magnitude,
+              const Ray& ray, Hit& hit) {
   const RobustRay r(ray, scene, magnitude);
   float tn = ray.tmin, tf = hit.t;
   for (int a = 0; a < 3; ++a) {
@@ -108,7 +109,8 @@ bool Bih::occluded(const Ray& ray) const {
 
 void Bih::fill_stats(AccelStats& stats, float traversal_cost, float intersection_cost) const {
   stats.prims = stats.prim_refs = ids_.size();
-  stats.bytes = nodes_.size() * sizeof(BihNode) + ids_.size() * sizeof(std::uint32_t) + tris_.size() * sizeof(Triangle);
+  stats.bytes = nodes_.size() * sizeof(BihNode) + ids_.size() * sizeof(std::uint32_t) +
+                tris_.size() * sizeof(Triangle);
   stats.nodes = stats.leaves = stats.empty_leaves = 0;
   stats.max_depth = 0;
   stats.cost_evals = cost_evals_;
@@ -150,7 +152,9 @@ void Bih::fill_stats(AccelStats& stats, float traversal_cost, float intersection
     stack.push_back({n.child(), item.depth + 1, first});
   }
   stats.mean_leaf_depth = depth_sum / static_cast<double>(stats.leaves);
-  stats.mean_leaf_prims = static_cast<double>(stats.prim_refs) / static_cast<double>(std::max<std::size_t>(stats.leaves - stats.empty_leaves, 1));
+  stats.mean_leaf_prims =
+      static_cast<double>(stats.prim_refs) /
+      static_cast<double>(std::max<std::size_t>(stats.leaves - stats.empty_leaves, 1));
   stats.sah_cost = cost.value();
 }
 

@@ -17,9 +17,11 @@ constexpr std::size_t kTaskRefs = 4096;  // subtrees at least this big become ta
 
 class BinnedBuilder {
  public:
-  BinnedBuilder(std::vector<BvhRef>& refs, const BvhBuildOptions& options) : refs_(refs), options_(options) {}
+  BinnedBuilder(std::vector<BvhRef>& refs, const BvhBuildOptions& options)
+      : refs_(refs), options_(options) {}
 
-  std::unique_ptr<BvhPiece> build_piece(std::size_t begin, std::size_t end, const RefBounds& bounds, int depth) {
+  std::unique_ptr<BvhPiece> build_piece(std::size_t begin, std::size_t end, const RefBounds& bounds,
+                                        int depth) {
     auto piece = std::make_unique<BvhPiece>();
     piece->nodes.resize(1);
     std::uint64_t evals = 0;
@@ -31,14 +33,15 @@ class BinnedBuilder {
   std::uint64_t evals() const { return evals_; }
 
  private:
-  void make_leaf(BvhPiece& piece, std::size_t slot, std::size_t begin, std::size_t end, const Aabb& box) {
+  void make_leaf(BvhPiece& piece, std::size_t slot, std::size_t begin, std::size_t end,
+                 const Aabb& box) {
     const auto first = static_cast<std::uint32_t>(piece.prims.size());
     for (std::size_t i = begin; i < end; ++i) piece.prims.push_back(refs_[i].prim);
     piece.nodes[slot] = BvhNode::make_leaf(box, first, static_cast<std::uint32_t>(end - begin));
   }
 
-  void build(BvhPiece& piece, std::size_t slot, std::size_t begin, std::size_t end, const RefBounds& bounds,
-             int depth, std::uint64_t& evals) {
+  void build(BvhPiece& piece, std::size_t slot, std::size_t begin, std::size_t end,
+             const RefBounds& bounds, int depth, std::uint64_t& evals) {
     const std::size_t n = end - begin;
     if (n <= static_cast<std::size_t>(options_.min_leaf) || depth >= options_.max_depth)
       return make_leaf(piece, slot, begin, end, bounds.box);
@@ -47,13 +50,15 @@ class BinnedBuilder {
     const ObjectSplit split = find_object_split(refs, bounds, options_, evals);
     const float leaf_cost = bvh_leaf_cost(options_, n);
     const bool small = n <= static_cast<std::size_t>(options_.max_leaf);
-    if (small && (split.axis < 0 || split.cost >= leaf_cost)) return make_leaf(piece, slot, begin, end, bounds.box);
+    if (small && (split.axis < 0 || split.cost >= leaf_cost))
+      return make_leaf(piece, slot, begin, end, bounds.box);
 
     RefBounds left, right;
     std::size_t n_left;
     int axis;
     if (split.axis >= 0) {
-      n_left = partition_refs(refs, CenterBins(bounds.centers, bin_count(options_, n)), split, left, right);
+      n_left = partition_refs(refs, CenterBins(bounds.centers, bin_count(options_, n)), split, left,
+                              right);
       axis = split.axis;
     } else {  // all centres coincide: halve the list
       n_left = n / 2;
@@ -85,7 +90,8 @@ class BinnedBuilder {
 std::vector<BvhRef> make_prim_refs(std::span<const Triangle> triangles) {
   std::vector<BvhRef> refs(triangles.size());
   parallel_chunks(triangles.size(), 4096, [&](std::size_t begin, std::size_t end) {
-    for (std::size_t i = begin; i < end; ++i) refs[i] = {triangles[i].bounds(), static_cast<std::uint32_t>(i)};
+    for (std::size_t i = begin; i < end; ++i)
+      refs[i] = {triangles[i].bounds(), static_cast<std::uint32_t>(i)};
   });
   return refs;
 }

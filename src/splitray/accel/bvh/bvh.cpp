@@ -21,7 +21,8 @@ BvhBuildOptions BvhBuildOptions::from(const BuildConfig& config) {
 
 std::vector<std::string> Bvh::builder_names() { return {"binned", "sbvh", "embree"}; }
 
-Bvh Bvh::build(std::span<const Triangle> triangles, const std::string& builder, const BvhBuildOptions& options) {
+Bvh Bvh::build(std::span<const Triangle> triangles, const std::string& builder,
+               const BvhBuildOptions& options) {
   std::vector<BvhRef> refs = make_prim_refs(triangles);
   BvhBuildResult result;
   if (builder == "binned")
@@ -31,8 +32,11 @@ Bvh Bvh::build(std::span<const Triangle> triangles, const std::string& builder, 
   else if (builder == "embree")
     result = build_bvh_embree(triangles, std::move(refs), options, true);
   else
-    throw Error("--builder", "'" + builder + "' is not a BVH builder (known: binned, sbvh, embree)");
-  return from_pieces(triangles, *result.root);
+    throw Error("--builder",
+                "'" + builder + "' is not a BVH builder (known: binned, sbvh, embree)");
+  Bvh bvh = from_pieces(triangles, *result.root);
+  bvh.cost_evals_ = result.cost_evals;
+  return bvh;
 }
 
 Bvh Bvh::from_pieces(std::span<const Triangle> triangles, const BvhPiece& root) {
@@ -41,7 +45,8 @@ Bvh Bvh::from_pieces(std::span<const Triangle> triangles, const BvhPiece& root) 
   flatten_pieces<BvhNodeTraits>(root, bvh.nodes_, bvh.ids_);
   if (bvh.ids_.empty()) bvh.nodes_.clear();  // nothing to hold
   for (const std::uint32_t id : bvh.ids_)
-    if (id >= triangles.size()) throw Error("bvh", "a leaf refers to a triangle that does not exist");
+    if (id >= triangles.size())
+      throw Error("bvh", "a leaf refers to a triangle that does not exist");
   bvh.update_scene_bounds(triangles);
   bvh.wide_.collapse(bvh.nodes_, bvh.ids_, triangles);
   return bvh;
@@ -49,20 +54,23 @@ Bvh Bvh::from_pieces(std::span<const Triangle> triangles, const BvhPiece& root) 
 
 void Bvh::update_scene_bounds(std::span<const Triangle> triangles) {
   scene_ = nodes_.empty() ? Aabb{} : nodes_[0].box();
-  for (const std::uint32_t id : ids_) scene_.extend(triangles[id].bounds());  // clipped boxes may be smaller
+  for (const std::uint32_t id : ids_)
+    scene_.extend(triangles[id].bounds());  // clipped boxes may be smaller
   magnitude_ = nodes_.empty() ? 0.0f : coordinate_magnitude(scene_);
 }
 
 void Bvh::refit(std::span<const Triangle> triangles) {
   if (triangles.size() != triangle_count_)
     throw Error("bvh refit", "the deformed mesh has " + std::to_string(triangles.size()) +
-                                 " triangles, the BVH was built on " + std::to_string(triangle_count_));
+                                 " triangles, the BVH was built on " +
+                                 std::to_string(triangle_count_));
   // Children always come after their parent: one backward pass is bottom-up.
   for (std::size_t i = nodes_.size(); i-- > 0;) {
     BvhNode& n = nodes_[i];
     Aabb box;
     if (n.leaf()) {
-      for (std::uint32_t r = n.index; r < n.index + n.count(); ++r) box.extend(triangles[ids_[r]].bounds());
+      for (std::uint32_t r = n.index; r < n.index + n.count(); ++r)
+        box.extend(triangles[ids_[r]].bounds());
     } else {
       box = merge(nodes_[n.index].box(), nodes_[n.index + 1].box());
     }
@@ -81,6 +89,7 @@ void Bvh::fill_stats(AccelStats& stats, float traversal_cost, float intersection
   stats.prims = triangle_count_;
   stats.bytes = bytes();
   stats.prim_refs = ids_.size();
+  stats.cost_evals = cost_evals_;
   stats.nodes = stats.leaves = stats.empty_leaves = 0;
   stats.max_depth = 0;
   if (nodes_.empty()) {
@@ -128,6 +137,8 @@ Hit Bvh::intersect(const Ray& ray) const {
   return hit;
 }
 
-bool Bvh::occluded(const Ray& ray) const { return !nodes_.empty() && wide_.occluded(ray, scene_, magnitude_); }
+bool Bvh::occluded(const Ray& ray) const {
+  return !nodes_.empty() && wide_.occluded(ray, scene_, magnitude_);
+}
 
 }  // namespace splitray

@@ -25,7 +25,8 @@ class Bvh {
 
   // Builders: "binned", "sbvh" (ours), "embree" (rtcBuildBVH, high quality, spatial splits).
   static std::vector<std::string> builder_names();
-  static Bvh build(std::span<const Triangle> triangles, const std::string& builder, const BvhBuildOptions& options);
+  static Bvh build(std::span<const Triangle> triangles, const std::string& builder,
+                   const BvhBuildOptions& options);
   // Lays out a built piece tree whose leaves reference `triangles`.
   static Bvh from_pieces(std::span<const Triangle> triangles, const BvhPiece& root);
 
@@ -49,12 +50,13 @@ class Bvh {
  private:
   void update_scene_bounds(std::span<const Triangle> triangles);
 
-  std::vector<BvhNode> nodes_;                         // the binary tree, root at 0
-  WideBvh wide_;                                       // the traversal layout
-  std::vector<std::uint32_t> ids_;                     // triangle id of each leaf reference
+  std::vector<BvhNode> nodes_;      // the binary tree, root at 0
+  WideBvh wide_;                    // the traversal layout
+  std::vector<std::uint32_t> ids_;  // triangle id of each leaf reference
   std::size_t triangle_count_ = 0;
-  Aabb scene_;             // bounds of all triangles (conservative ray padding)
+  Aabb scene_;  // bounds of all triangles (conservative ray padding)
   float magnitude_ = 0;
+  std::uint64_t cost_evals_ = 0;  // SAH evaluations of the build
 };
 
 }  // namespace splitray

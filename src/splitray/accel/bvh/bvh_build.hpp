@@ -17,9 +17,10 @@ namespace splitray {
 // The binary node every builder produces; the children of a node are stored side by side.
 struct alignas(32) BvhNode {
   Vec3 lo;
-  std::uint32_t index = 0;  // interior: first child (the second is index + 1); leaf: first reference
+  std::uint32_t index =
+      0;  // interior: first child (the second is index + 1); leaf: first reference
   Vec3 hi;
-  std::uint32_t meta = 0;   // leaf: reference count (> 0); interior: split axis << 30
+  std::uint32_t meta = 0;  // leaf: reference count (> 0); interior: split axis << 30
 
   static constexpr std::uint32_t kCountMask = (1u << 30) - 1;
   bool leaf() const { return (meta & kCountMask) != 0; }

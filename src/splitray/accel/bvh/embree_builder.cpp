@@ -34,8 +34,12 @@ struct Context {
   std::span<const Triangle> triangles;
 };
 
-Aabb to_aabb(const RTCBounds& b) { return {{b.lower_x, b.lower_y, b.lower_z}, {b.upper_x, b.upper_y, b.upper_z}}; }
-Aabb to_aabb(const RTCBuildPrimitive& p) { return {{p.lower_x, p.lower_y, p.lower_z}, {p.upper_x, p.upper_y, p.upper_z}}; }
+Aabb to_aabb(const RTCBounds& b) {
+  return {{b.lower_x, b.lower_y, b.lower_z}, {b.upper_x, b.upper_y, b.upper_z}};
+}
+Aabb to_aabb(const RTCBuildPrimitive& p) {
+  return {{p.lower_x, p.lower_y, p.lower_z}, {p.upper_x, p.upper_y, p.upper_z}};
+}
 void store(const Aabb& a, RTCBounds* b) {
   b->lower_x = a.lo.x, b->lower_y = a.lo.y, b->lower_z = a.lo.z;
   b->upper_x = a.hi.x, b->upper_y = a.hi.y, b->upper_z = a.hi.z;
@@ -49,7 +53,8 @@ void* create_node(RTCThreadLocalAllocator alloc, unsigned int child_count, void*
 
 void set_children(void* node, void** children, unsigned int count, void*) {
   auto* inner = static_cast<TmpInner*>(node);
-  for (unsigned int i = 0; i < count && i < 2; ++i) inner->kids[i] = static_cast<TmpNode*>(children[i]);
+  for (unsigned int i = 0; i < count && i < 2; ++i)
+    inner->kids[i] = static_cast<TmpNode*>(children[i]);
 }
 
 void set_bounds(void* node, const RTCBounds** bounds, unsigned int count, void*) {
@@ -57,7 +62,8 @@ void set_bounds(void* node, const RTCBounds** bounds, unsigned int count, void*)
   for (unsigned int i = 0; i < count && i < 2; ++i) inner->boxes[i] = to_aabb(*bounds[i]);
 }
 
-void* create_leaf(RTCThreadLocalAllocator alloc, const RTCBuildPrimitive* prims, size_t count, void*) {
+void* create_leaf(RTCThreadLocalAllocator alloc, const RTCBuildPrimitive* prims, size_t count,
+                  void*) {
   void* memory = rtcThreadLocalAlloc(alloc, sizeof(TmpLeaf) + count * sizeof(std::uint32_t), 16);
   auto* leaf = new (memory) TmpLeaf;
   leaf->count = static_cast<std::uint32_t>(count);
@@ -65,8 +71,8 @@ void* create_leaf(RTCThreadLocalAllocator alloc, const RTCBuildPrimitive* prims,
   return leaf;
 }
 
-void split_primitive(const RTCBuildPrimitive* prim, unsigned int dim, float position, RTCBounds* left,
-                     RTCBounds* right, void* user) {
+void split_primitive(const RTCBuildPrimitive* prim, unsigned int dim, float position,
+                     RTCBounds* left, RTCBounds* right, void* user) {
   const auto* context = static_cast<const Context*>(user);
   const Triangle& tri = context->triangles[prim->primID];
   const Aabb box = to_aabb(*prim);
@@ -101,8 +107,10 @@ void lay_out(const TmpNode* node, const Aabb& box, BvhPiece& piece, std::size_t 
     const auto first = static_cast<std::uint32_t>(piece.prims.size());
     piece.prims.insert(piece.prims.end(), leaf->ids, leaf->ids + leaf->count);
     std::sort(piece.prims.begin() + first, piece.prims.end());
-    piece.prims.erase(std::unique(piece.prims.begin() + first, piece.prims.end()), piece.prims.end());
-    piece.nodes[slot] = BvhNode::make_leaf(box, first, static_cast<std::uint32_t>(piece.prims.size() - first));
+    piece.prims.erase(std::unique(piece.prims.begin() + first, piece.prims.end()),
+                      piece.prims.end());
+    piece.nodes[slot] =
+        BvhNode::make_leaf(box, first, static_cast<std::uint32_t>(piece.prims.size() - first));
     return;
   }
   const auto* inner = reinterpret_cast<const TmpInner*>(node);

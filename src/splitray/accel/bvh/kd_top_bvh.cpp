@@ -14,7 +14,8 @@ namespace splitray {
 
 namespace {
 
-constexpr std::size_t kAssignChunk = 4096;  // fixed chunks: the reference order never depends on threads
+constexpr std::size_t kAssignChunk =
+    4096;  // fixed chunks: the reference order never depends on threads
 
 int add_kd_cells(const KdBuildNode& node, const Aabb& box, int depth, std::vector<TopCell>& cells) {
   const int index = static_cast<int>(cells.size());
@@ -31,7 +32,8 @@ int add_kd_cells(const KdBuildNode& node, const Aabb& box, int depth, std::vecto
   return index;
 }
 
-int add_box_cells(std::span<const Aabb> boxes, std::span<std::uint32_t> order, std::vector<TopCell>& cells) {
+int add_box_cells(std::span<const Aabb> boxes, std::span<std::uint32_t> order,
+                  std::vector<TopCell>& cells) {
   const int index = static_cast<int>(cells.size());
   cells.push_back({});
   if (order.size() == 1) {
@@ -52,24 +54,28 @@ int add_box_cells(std::span<const Aabb> boxes, std::span<std::uint32_t> order, s
   cells[index].axis = axis;
   cells[index].child[0] = l;
   cells[index].child[1] = r;
-  cells[index].box = merge(cells[static_cast<std::size_t>(l)].box, cells[static_cast<std::size_t>(r)].box);
+  cells[index].box =
+      merge(cells[static_cast<std::size_t>(l)].box, cells[static_cast<std::size_t>(r)].box);
   return index;
 }
 
 bool overlaps(const Aabb& a, const Aabb& b) { return !intersection(a, b).empty(); }
 
 // Adds a reference of `prim` to every leaf cell below `cell` that the triangle reaches.
-void assign(const Triangle& tri, const Aabb& tri_box, std::uint32_t prim, std::span<const TopCell> cells,
-            std::span<const std::int32_t> leaf_of, int cell,
+void assign(const Triangle& tri, const Aabb& tri_box, std::uint32_t prim,
+            std::span<const TopCell> cells, std::span<const std::int32_t> leaf_of, int cell,
             std::vector<std::pair<std::uint32_t, BvhRef>>& out) {
   const TopCell& c = cells[static_cast<std::size_t>(cell)];
   if (c.leaf()) {
     const Aabb clipped = clip_triangle_bounds(tri, c.box);
-    if (!clipped.empty()) out.push_back({static_cast<std::uint32_t>(leaf_of[static_cast<std::size_t>(cell)]), {clipped, prim}});
+    if (!clipped.empty())
+      out.push_back(
+          {static_cast<std::uint32_t>(leaf_of[static_cast<std::size_t>(cell)]), {clipped, prim}});
     return;
   }
   for (const std::int32_t child : c.child)
-    if (overlaps(tri_box, cells[static_cast<std::size_t>(child)].box)) assign(tri, tri_box, prim, cells, leaf_of, child, out);
+    if (overlaps(tri_box, cells[static_cast<std::size_t>(child)].box))
+      assign(tri, tri_box, prim, cells, leaf_of, child, out);
 }
 
 int top_depth(std::span<const TopCell> cells, int cell) {
@@ -77,16 +83,19 @@ int top_depth(std::span<const TopCell> cells, int cell) {
   return c.leaf() ? 0 : 1 + std::max(top_depth(cells, c.child[0]), top_depth(cells, c.child[1]));
 }
 
-std::unique_ptr<BvhPiece> assemble(std::span<const TopCell> cells, int cell, std::span<const std::int32_t> leaf_of,
+std::unique_ptr<BvhPiece> assemble(std::span<const TopCell> cells, int cell,
+                                   std::span<const std::int32_t> leaf_of,
                                    std::vector<std::unique_ptr<BvhPiece>>& expanded) {
   const TopCell& c = cells[static_cast<std::size_t>(cell)];
-  if (c.leaf()) return std::move(expanded[static_cast<std::size_t>(leaf_of[static_cast<std::size_t>(cell)])]);
+  if (c.leaf())
+    return std::move(expanded[static_cast<std::size_t>(leaf_of[static_cast<std::size_t>(cell)])]);
   auto a = assemble(cells, c.child[0], leaf_of, expanded);
   auto b = assemble(cells, c.child[1], leaf_of, expanded);
   if (!a || !b) return a ? std::move(a) : std::move(b);
   auto piece = std::make_unique<BvhPiece>();
   // Refit: the top node's box is the union of what its children really hold.
-  piece->nodes.push_back(BvhNode::make_interior(merge(a->nodes[0].box(), b->nodes[0].box()), c.axis));
+  piece->nodes.push_back(
+      BvhNode::make_interior(merge(a->nodes[0].box(), b->nodes[0].box()), c.axis));
   piece->kids[0] = std::move(a);
   piece->kids[1] = std::move(b);
   return piece;
@@ -116,8 +125,8 @@ LeafExpander parse_leaf_expander(const std::string& name) {
   throw Error("--expander", "'" + name + "' is not a leaf expander (known: binned, sbvh, embree)");
 }
 
-Bvh build_top_bvh(std::span<const Triangle> triangles, std::span<const TopCell> cells, LeafExpander expander,
-                  const BvhBuildOptions& options, TopBvhStats* stats) {
+Bvh build_top_bvh(std::span<const Triangle> triangles, std::span<const TopCell> cells,
+                  LeafExpander expander, const BvhBuildOptions& options, TopBvhStats* stats) {
   if (cells.empty()) throw Error("kd-top bvh", "the top has no cells");
   Timer total;
   std::vector<std::int32_t> leaf_of(cells.size(), -1);
@@ -140,7 +149,8 @@ Bvh build_top_bvh(std::span<const Triangle> triangles, std::span<const TopCell> 
       if (overlaps(box, cells[0].box))
         assign(triangles[i], box, static_cast<std::uint32_t>(i), cells, leaf_of, 0, found[k]);
       if (found[k].size() == before)
-        throw Error("kd-top bvh", "triangle " + std::to_string(i) + " lies outside every leaf cell");
+        throw Error("kd-top bvh",
+                    "triangle " + std::to_string(i) + " lies outside every leaf cell");
     }
   });
   std::vector<std::vector<BvhRef>> refs(leaf_cells.size());
@@ -164,9 +174,15 @@ Bvh build_top_bvh(std::span<const Triangle> triangles, std::span<const TopCell> 
     if (refs[l].empty()) return;
     BvhBuildResult built;
     switch (expander) {
-      case LeafExpander::binned: built = build_bvh_binned(triangles, std::move(refs[l]), leaf_options); break;
-      case LeafExpander::sbvh: built = build_bvh_sbvh(triangles, std::move(refs[l]), leaf_options); break;
-      case LeafExpander::embree: built = build_bvh_embree(triangles, std::move(refs[l]), leaf_options, true); break;
+      case LeafExpander::binned:
+        built = build_bvh_binned(triangles, std::move(refs[l]), leaf_options);
+        break;
+      case LeafExpander::sbvh:
+        built = build_bvh_sbvh(triangles, std::move(refs[l]), leaf_options);
+        break;
+      case LeafExpander::embree:
+        built = build_bvh_embree(triangles, std::move(refs[l]), leaf_options, true);
+        break;
     }
     expanded[l] = std::move(built.root);
   });

@@ -22,7 +22,7 @@ namespace splitray {
 // A binary tree of cells, root at index 0; a leaf has no children.
 struct TopCell {
   Aabb box;
-  int axis = 0;                   // split axis of an interior cell
+  int axis = 0;  // split axis of an interior cell
   std::int32_t child[2] = {-1, -1};
   bool leaf() const { return child[0] < 0; }
 };
@@ -45,8 +45,9 @@ struct TopBvhStats {
 };
 
 // Steps 2-4 over a given top. Throws Error when a triangle lies outside every leaf cell.
-Bvh build_top_bvh(std::span<const Triangle> triangles, std::span<const TopCell> cells, LeafExpander expander,
-                  const BvhBuildOptions& options, TopBvhStats* stats = nullptr);
+Bvh build_top_bvh(std::span<const Triangle> triangles, std::span<const TopCell> cells,
+                  LeafExpander expander, const BvhBuildOptions& options,
+                  TopBvhStats* stats = nullptr);
 
 // The whole pipeline with the top of build_kd_sah (stopped at `depth`) as the cells.
 Bvh build_kd_top_bvh(std::span<const Triangle> triangles, int depth, LeafExpander expander,

@@ -23,7 +23,9 @@ struct Bin {
   float lo[3], hi[3];
   std::uint32_t count;
   void clear() {
-    for (int k = 0; k < 3; ++k) lo[k] = std::numeric_limits<float>::infinity(), hi[k] = -std::numeric_limits<float>::infinity();
+    for (int k = 0; k < 3; ++k)
+      lo[k] = std::numeric_limits<float>::infinity(),
+      hi[k] = -std::numeric_limits<float>::infinity();
     count = 0;
   }
   void add(const Aabb& b) {
@@ -75,9 +77,11 @@ RefBounds ref_bounds(std::span<const BvhRef> refs) {
       });
 }
 
-CenterBins::CenterBins(const Aabb& centers, int bins) : lo(centers.lo), count(std::clamp(bins, 2, kMaxBins)) {
+CenterBins::CenterBins(const Aabb& centers, int bins)
+    : lo(centers.lo), count(std::clamp(bins, 2, kMaxBins)) {
   const Vec3 e = centers.extent();
-  for (int a = 0; a < 3; ++a)  // slightly below count / extent: the top centre stays in the last bin
+  for (int a = 0; a < 3;
+       ++a)  // slightly below count / extent: the top centre stays in the last bin
     scale[a] = e[a] > 0 ? static_cast<float>(count) * (1 - 0x1p-20f) / e[a] : 0.0f;
 }
 
@@ -137,7 +141,8 @@ ObjectSplit find_object_split(std::span<const BvhRef> refs, const RefBounds& bou
       const std::size_t n_right = refs.size() - n_left;
       if (n_left == 0 || n_right == 0) continue;
       ++evals;
-      const float cost = bvh_split_cost(options, parent_area, left.half_area(), n_left, right_area[i + 1], n_right);
+      const float cost = bvh_split_cost(options, parent_area, left.half_area(), n_left,
+                                        right_area[i + 1], n_right);
       if (cost < best.cost) {
         best.cost = cost;
         best.axis = a;

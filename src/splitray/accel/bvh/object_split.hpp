@@ -1,8 +1,8 @@
 #pragma once
 // Binned SAH object splits over reference centres, shared by the binned builder and SBVH.
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
-#include <algorithm>
 #include <limits>
 #include <span>
 
@@ -56,7 +56,8 @@ class RefBoundsAccumulator {
   }
 
  private:
-  __m128 lo_ = _mm_set1_ps(std::numeric_limits<float>::infinity()), hi_ = _mm_set1_ps(-std::numeric_limits<float>::infinity());
+  __m128 lo_ = _mm_set1_ps(std::numeric_limits<float>::infinity()),
+         hi_ = _mm_set1_ps(-std::numeric_limits<float>::infinity());
   __m128 c_lo_ = lo_, c_hi_ = hi_;
 #else
   void add(const BvhRef& r) { b_.extend(r); }
@@ -76,10 +77,10 @@ struct CenterBins {
 };
 
 struct ObjectSplit {
-  int axis = -1;      // -1: no split (all centres coincide)
-  int bin = 0;        // references whose centre bin <= bin go left
-  float cost = 0;     // K_T + K_I * (A_L N_L + A_R N_R) / A
-  Aabb left, right;   // bounds of the two sides
+  int axis = -1;     // -1: no split (all centres coincide)
+  int bin = 0;       // references whose centre bin <= bin go left
+  float cost = 0;    // K_T + K_I * (A_L N_L + A_R N_R) / A
+  Aabb left, right;  // bounds of the two sides
 };
 
 // Bins for n references: fewer for small nodes, where more would stay empty.
@@ -105,11 +106,15 @@ inline float leaf_tests(const BvhBuildOptions& o, std::size_t n) {
 
 // SAH cost of a leaf, and of a split with the given child areas and counts (relative to the
 // parent's area).
-inline float bvh_leaf_cost(const BvhBuildOptions& o, std::size_t n) { return o.intersection_cost * leaf_tests(o, n); }
-inline float bvh_split_cost(const BvhBuildOptions& o, float parent_area, float left_area, std::size_t n_left,
-                            float right_area, std::size_t n_right) {
+inline float bvh_leaf_cost(const BvhBuildOptions& o, std::size_t n) {
+  return o.intersection_cost * leaf_tests(o, n);
+}
+inline float bvh_split_cost(const BvhBuildOptions& o, float parent_area, float left_area,
+                            std::size_t n_left, float right_area, std::size_t n_right) {
   return o.traversal_cost +
-         o.intersection_cost * (left_area * leaf_tests(o, n_left) + right_area * leaf_tests(o, n_right)) / parent_area;
+         o.intersection_cost *
+             (left_area * leaf_tests(o, n_left) + right_area * leaf_tests(o, n_right)) /
+             parent_area;
 }
 
 }  // namespace splitray

@@ -75,7 +75,8 @@ void place_piece(const Piece<Node>& piece, std::size_t slot, std::vector<Node>& 
 
 // Lays out a piece tree into `nodes` (root at 0) and `prims`.
 template <class Traits, class Node>
-void flatten_pieces(const Piece<Node>& root, std::vector<Node>& nodes, std::vector<std::uint32_t>& prims) {
+void flatten_pieces(const Piece<Node>& root, std::vector<Node>& nodes,
+                    std::vector<std::uint32_t>& prims) {
   std::size_t node_count = 0, prim_count = 0;
   detail::count_pieces<Traits>(root, node_count, prim_count);
   nodes.clear();

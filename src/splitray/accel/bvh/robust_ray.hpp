@@ -31,7 +31,8 @@ struct RobustRay {
   RobustRay(const Ray& ray, const Aabb& scene, float magnitude) {
     float reach = 0;  // the largest coordinate distance from the origin to the scene
     for (int a = 0; a < 3; ++a)
-      reach = std::max(reach, std::max(std::fabs(ray.org[a] - scene.lo[a]), std::fabs(ray.org[a] - scene.hi[a])));
+      reach = std::max(reach, std::max(std::fabs(ray.org[a] - scene.lo[a]),
+                                       std::fabs(ray.org[a] - scene.hi[a])));
     const float pad = 0x1p-18f * (reach + magnitude);
     for (int a = 0; a < 3; ++a) {
       negative[a] = std::signbit(ray.dir[a]) ? 1 : 0;
@@ -43,8 +44,12 @@ struct RobustRay {
   }
 
   // Entry and exit parameters of the ray on a slab [lo, hi] of axis a (entry > exit: missed).
-  float entry(int a, float lo, float hi) const { return ((negative[a] ? hi : lo) - org_near[a]) * inv[a]; }
-  float exit(int a, float lo, float hi) const { return ((negative[a] ? lo : hi) - org_far[a]) * inv[a]; }
+  float entry(int a, float lo, float hi) const {
+    return ((negative[a] ? hi : lo) - org_near[a]) * inv[a];
+  }
+  float exit(int a, float lo, float hi) const {
+    return ((negative[a] ? lo : hi) - org_far[a]) * inv[a];
+  }
 };
 
 // max/min that keep `acc` when `x` is NaN.

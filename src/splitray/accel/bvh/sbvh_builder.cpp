@@ -45,8 +45,8 @@ class SbvhBuilder {
   SbvhBuilder(std::span<const Triangle> triangles, const BvhBuildOptions& options, const Aabb& root)
       : tris_(triangles), options_(options), min_overlap_(options.sbvh_alpha * root.half_area()) {}
 
-  std::unique_ptr<BvhPiece> build_piece(std::vector<BvhRef> refs, const RefBounds& bounds, int depth,
-                                        std::size_t budget) {
+  std::unique_ptr<BvhPiece> build_piece(std::vector<BvhRef> refs, const RefBounds& bounds,
+                                        int depth, std::size_t budget) {
     auto piece = std::make_unique<BvhPiece>();
     piece->nodes.resize(1);
     std::uint64_t evals = 0;
@@ -58,25 +58,31 @@ class SbvhBuilder {
   std::uint64_t evals() const { return evals_; }
 
  private:
-  void make_leaf(BvhPiece& piece, std::size_t slot, const std::vector<BvhRef>& refs, const Aabb& box) {
+  void make_leaf(BvhPiece& piece, std::size_t slot, const std::vector<BvhRef>& refs,
+                 const Aabb& box) {
     // A triangle split earlier may come back in two parts: reference it once.
     const auto first = static_cast<std::uint32_t>(piece.prims.size());
     for (const BvhRef& r : refs) piece.prims.push_back(r.prim);
     std::sort(piece.prims.begin() + first, piece.prims.end());
-    piece.prims.erase(std::unique(piece.prims.begin() + first, piece.prims.end()), piece.prims.end());
-    piece.nodes[slot] = BvhNode::make_leaf(box, first, static_cast<std::uint32_t>(piece.prims.size() - first));
+    piece.prims.erase(std::unique(piece.prims.begin() + first, piece.prims.end()),
+                      piece.prims.end());
+    piece.nodes[slot] =
+        BvhNode::make_leaf(box, first, static_cast<std::uint32_t>(piece.prims.size() - first));
   }
 
-  SpatialSplit find_spatial_split(const std::vector<BvhRef>& refs, const Aabb& box, std::uint64_t& evals) const {
+  SpatialSplit find_spatial_split(const std::vector<BvhRef>& refs, const Aabb& box,
+                                  std::uint64_t& evals) const {
     SpatialSplit best;
-    const int count = std::clamp(std::min(options_.spatial_bins, static_cast<int>(2 * refs.size() + 4)), 2, kMaxSpatialBins);
+    const int count = std::clamp(
+        std::min(options_.spatial_bins, static_cast<int>(2 * refs.size() + 4)), 2, kMaxSpatialBins);
     const float parent_area = std::max(box.half_area(), std::numeric_limits<float>::min());
     thread_local std::vector<SpatialBin> bins(kMaxSpatialBins);  // scratch, reset per axis below
     thread_local std::vector<Aabb> right_box(kMaxSpatialBins);
     for (int a = 0; a < 3; ++a) {
       const float lo = box.lo[a], extent = box.hi[a] - box.lo[a];
       if (!(extent > 0)) continue;
-      const float width = extent / static_cast<float>(count), inv = static_cast<float>(count) / extent;
+      const float width = extent / static_cast<float>(count),
+                  inv = static_cast<float>(count) / extent;
       for (int i = 0; i < count; ++i) bins[i] = {};
       for (const BvhRef& r : refs) {
         const int b0 = std::clamp(static_cast<int>((r.box.lo[a] - lo) * inv), 0, count - 1);
@@ -108,8 +114,8 @@ class SbvhBuilder {
         n_right -= bins[i].exit;
         if (n_left == 0 || n_right == 0) continue;
         ++evals;
-        const float cost =
-            bvh_split_cost(options_, parent_area, left.half_area(), n_left, right_box[i + 1].half_area(), n_right);
+        const float cost = bvh_split_cost(options_, parent_area, left.half_area(), n_left,
+                                          right_box[i + 1].half_area(), n_right);
         if (cost < best.cost) {
           best = {a, bin_plane(lo, width, i + 1), cost, left, right_box[i + 1], n_left, n_right};
         }
@@ -119,8 +125,8 @@ class SbvhBuilder {
   }
 
   // Distributes refs by the plane; false when one side would stay empty.
-  bool spatial_partition(const std::vector<BvhRef>& refs, const SpatialSplit& split, std::vector<BvhRef>& left,
-                         std::vector<BvhRef>& right) const {
+  bool spatial_partition(const std::vector<BvhRef>& refs, const SpatialSplit& split,
+                         std::vector<BvhRef>& left, std::vector<BvhRef>& right) const {
     const int a = split.axis;
     const float p = split.plane;
     Aabb left_box = split.left, right_box = split.right;
@@ -134,8 +140,10 @@ class SbvhBuilder {
         right.push_back(r);
       } else {
         const float both = left_box.half_area() * n_left + right_box.half_area() * n_right;
-        const float all_left = merge(left_box, r.box).half_area() * n_left + right_box.half_area() * (n_right - 1);
-        const float all_right = left_box.half_area() * (n_left - 1) + merge(right_box, r.box).half_area() * n_right;
+        const float all_left =
+            merge(left_box, r.box).half_area() * n_left + right_box.half_area() * (n_right - 1);
+        const float all_right =
+            left_box.half_area() * (n_left - 1) + merge(right_box, r.box).half_area() * n_right;
         if (all_left < both && all_left <= all_right) {
           left.push_back(r);
           left_box.extend(r.box);
@@ -157,18 +165,19 @@ class SbvhBuilder {
 
   // `budget` bounds the references this subtree may hold (spatial splits add some), so that
   // the total stays within kGrowth times the input and the recursion always shrinks.
-  void build(BvhPiece& piece, std::size_t slot, std::vector<BvhRef>& refs, const RefBounds& bounds, int depth,
-             std::size_t budget, std::uint64_t& evals) {
+  void build(BvhPiece& piece, std::size_t slot, std::vector<BvhRef>& refs, const RefBounds& bounds,
+             int depth, std::size_t budget, std::uint64_t& evals) {
     const std::size_t n = refs.size();
     if (n <= static_cast<std::size_t>(options_.min_leaf) || depth >= options_.max_depth)
       return make_leaf(piece, slot, refs, bounds.box);
 
     const ObjectSplit object = find_object_split(refs, bounds, options_, evals);
     SpatialSplit spatial;
-    if (budget > n && (object.axis < 0 || intersection(object.left, object.right).half_area() > min_overlap_))
+    if (budget > n &&
+        (object.axis < 0 || intersection(object.left, object.right).half_area() > min_overlap_))
       spatial = find_spatial_split(refs, bounds.box, evals);
-    const float best_cost = std::min(object.axis >= 0 ? object.cost : std::numeric_limits<float>::infinity(),
-                                     spatial.cost);
+    const float best_cost = std::min(
+        object.axis >= 0 ? object.cost : std::numeric_limits<float>::infinity(), spatial.cost);
     const float leaf_cost = bvh_leaf_cost(options_, n);
     if (n <= static_cast<std::size_t>(options_.max_leaf) && !(best_cost < leaf_cost))
       return make_leaf(piece, slot, refs, bounds.box);
@@ -192,10 +201,12 @@ class SbvhBuilder {
     if (!done) {
       std::size_t n_left = n / 2;
       if (object.axis >= 0) {
-        n_left = partition_refs(refs, CenterBins(bounds.centers, bin_count(options_, n)), object, left_bounds, right_bounds);
+        n_left = partition_refs(refs, CenterBins(bounds.centers, bin_count(options_, n)), object,
+                                left_bounds, right_bounds);
         axis = object.axis;
       } else {
-        for (std::size_t i = 0; i < n; ++i) (i < n_left ? left_bounds : right_bounds).extend(refs[i]);
+        for (std::size_t i = 0; i < n; ++i)
+          (i < n_left ? left_bounds : right_bounds).extend(refs[i]);
       }
       left.assign(refs.begin(), refs.begin() + static_cast<std::ptrdiff_t>(n_left));
       right.assign(refs.begin() + static_cast<std::ptrdiff_t>(n_left), refs.end());
@@ -203,15 +214,21 @@ class SbvhBuilder {
     std::vector<BvhRef>().swap(refs);  // release the parent's references before recursing
     // The spare budget goes to the children in proportion to their references.
     const std::size_t used = left.size() + right.size(), spare = budget > used ? budget - used : 0;
-    const std::size_t left_budget = left.size() + static_cast<std::size_t>(
-                                                      static_cast<double>(spare) * static_cast<double>(left.size()) / static_cast<double>(used));
+    const std::size_t left_budget =
+        left.size() +
+        static_cast<std::size_t>(static_cast<double>(spare) * static_cast<double>(left.size()) /
+                                 static_cast<double>(used));
     const std::size_t right_budget = std::max(used + spare - left_budget, right.size());
 
     if (slot == 0 && piece.nodes.size() == 1 && n >= kTaskRefs) {
       piece.nodes[0] = BvhNode::make_interior(bounds.box, axis);
       tbb::parallel_invoke(
-          [&] { piece.kids[0] = build_piece(std::move(left), left_bounds, depth + 1, left_budget); },
-          [&] { piece.kids[1] = build_piece(std::move(right), right_bounds, depth + 1, right_budget); });
+          [&] {
+            piece.kids[0] = build_piece(std::move(left), left_bounds, depth + 1, left_budget);
+          },
+          [&] {
+            piece.kids[1] = build_piece(std::move(right), right_bounds, depth + 1, right_budget);
+          });
       return;
     }
     const auto pair = static_cast<std::uint32_t>(piece.nodes.size());

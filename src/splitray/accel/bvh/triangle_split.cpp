@@ -4,7 +4,8 @@
 
 namespace splitray {
 
-void split_triangle_bounds(const Triangle& tri, const Aabb& box, int axis, float position, Aabb& left, Aabb& right) {
+void split_triangle_bounds(const Triangle& tri, const Aabb& box, int axis, float position,
+                           Aabb& left, Aabb& right) {
   Aabb l, r;
   for (int i = 0; i < 3; ++i) {
     const Vec3 a = tri.vertex(i), b = tri.vertex(i == 2 ? 0 : i + 1);

@@ -9,6 +9,7 @@ namespace splitray {
 
 // `box` bounds the part of the triangle being split (a reference); left gets coordinates
 // <= position on `axis`, right >= position. Either may come back empty.
-void split_triangle_bounds(const Triangle& tri, const Aabb& box, int axis, float position, Aabb& left, Aabb& right);
+void split_triangle_bounds(const Triangle& tri, const Aabb& box, int axis, float position,
+                           Aabb& left, Aabb& right);
 
 }  // namespace splitray

@@ -49,7 +49,8 @@ std::uint32_t add_blocks(const Collapse& c, const BvhNode& leaf, std::uint32_t& 
   for (std::uint32_t b = 0; b < count; ++b) {
     TriangleBlock block;
     for (int lane = 0; lane < kBlockWidth; ++lane) {
-      const std::uint32_t r = leaf.index + std::min(b * kBlockWidth + static_cast<std::uint32_t>(lane), refs - 1);
+      const std::uint32_t r =
+          leaf.index + std::min(b * kBlockWidth + static_cast<std::uint32_t>(lane), refs - 1);
       block.set(lane, c.triangles[c.ids[r]], c.ids[r]);
     }
     c.blocks.push_back(block);
@@ -190,32 +191,43 @@ struct Watertight4 {
   }
 
   // Bit i: lane i hits with tmin <= t <= tmax (t, u, v stored).
-  unsigned test(const TriangleBlock& b, float tmin, float tmax, float* t_out, float* u_out, float* v_out,
-                unsigned& scalar) const {
+  unsigned test(const TriangleBlock& b, float tmin, float tmax, float* t_out, float* u_out,
+                float* v_out, unsigned& scalar) const {
 #if defined(__SSE2__)
-    const auto row = [&](int vertex, int i) { return _mm_sub_ps(_mm_load_ps(b.v[3 * vertex + k[i]]), org[i]); };
+    const auto row = [&](int vertex, int i) {
+      return _mm_sub_ps(_mm_load_ps(b.v[3 * vertex + k[i]]), org[i]);
+    };
     const __m128 a_x = row(0, 0), a_y = row(0, 1), a_z = row(0, 2);
     const __m128 b_x = row(1, 0), b_y = row(1, 1), b_z = row(1, 2);
     const __m128 c_x = row(2, 0), c_y = row(2, 1), c_z = row(2, 2);
-    const __m128 ax = _mm_sub_ps(a_x, _mm_mul_ps(sx, a_z)), ay = _mm_sub_ps(a_y, _mm_mul_ps(sy, a_z));
-    const __m128 bx = _mm_sub_ps(b_x, _mm_mul_ps(sx, b_z)), by = _mm_sub_ps(b_y, _mm_mul_ps(sy, b_z));
-    const __m128 cx = _mm_sub_ps(c_x, _mm_mul_ps(sx, c_z)), cy = _mm_sub_ps(c_y, _mm_mul_ps(sy, c_z));
+    const __m128 ax = _mm_sub_ps(a_x, _mm_mul_ps(sx, a_z)),
+                 ay = _mm_sub_ps(a_y, _mm_mul_ps(sy, a_z));
+    const __m128 bx = _mm_sub_ps(b_x, _mm_mul_ps(sx, b_z)),
+                 by = _mm_sub_ps(b_y, _mm_mul_ps(sy, b_z));
+    const __m128 cx = _mm_sub_ps(c_x, _mm_mul_ps(sx, c_z)),
+                 cy = _mm_sub_ps(c_y, _mm_mul_ps(sy, c_z));
     const __m128 u = _mm_sub_ps(_mm_mul_ps(cx, by), _mm_mul_ps(cy, bx));
     const __m128 v = _mm_sub_ps(_mm_mul_ps(ax, cy), _mm_mul_ps(ay, cx));
     const __m128 e = _mm_sub_ps(_mm_mul_ps(bx, ay), _mm_mul_ps(by, ax));
     const __m128 zero = _mm_setzero_ps();
-    const __m128 on_edge = _mm_or_ps(_mm_or_ps(_mm_cmpeq_ps(u, zero), _mm_cmpeq_ps(v, zero)), _mm_cmpeq_ps(e, zero));
+    const __m128 on_edge =
+        _mm_or_ps(_mm_or_ps(_mm_cmpeq_ps(u, zero), _mm_cmpeq_ps(v, zero)), _mm_cmpeq_ps(e, zero));
     scalar = static_cast<unsigned>(_mm_movemask_ps(on_edge));
-    const __m128 negative = _mm_or_ps(_mm_or_ps(_mm_cmplt_ps(u, zero), _mm_cmplt_ps(v, zero)), _mm_cmplt_ps(e, zero));
-    const __m128 positive = _mm_or_ps(_mm_or_ps(_mm_cmpgt_ps(u, zero), _mm_cmpgt_ps(v, zero)), _mm_cmpgt_ps(e, zero));
+    const __m128 negative =
+        _mm_or_ps(_mm_or_ps(_mm_cmplt_ps(u, zero), _mm_cmplt_ps(v, zero)), _mm_cmplt_ps(e, zero));
+    const __m128 positive =
+        _mm_or_ps(_mm_or_ps(_mm_cmpgt_ps(u, zero), _mm_cmpgt_ps(v, zero)), _mm_cmpgt_ps(e, zero));
     const __m128 det = _mm_add_ps(_mm_add_ps(u, v), e);
-    const __m128 outside = _mm_or_ps(_mm_or_ps(_mm_and_ps(negative, positive), _mm_cmpeq_ps(det, zero)), on_edge);
+    const __m128 outside =
+        _mm_or_ps(_mm_or_ps(_mm_and_ps(negative, positive), _mm_cmpeq_ps(det, zero)), on_edge);
     if (_mm_movemask_ps(outside) == 0xf) return 0;
     const __m128 az = _mm_mul_ps(sz, a_z), bz = _mm_mul_ps(sz, b_z), cz = _mm_mul_ps(sz, c_z);
-    const __m128 t_scaled = _mm_add_ps(_mm_add_ps(_mm_mul_ps(u, az), _mm_mul_ps(v, bz)), _mm_mul_ps(e, cz));
+    const __m128 t_scaled =
+        _mm_add_ps(_mm_add_ps(_mm_mul_ps(u, az), _mm_mul_ps(v, bz)), _mm_mul_ps(e, cz));
     const __m128 inv_det = _mm_div_ps(_mm_set1_ps(1.0f), det);
     const __m128 t = _mm_mul_ps(t_scaled, inv_det);
-    const __m128 in_range = _mm_and_ps(_mm_cmpge_ps(t, _mm_set1_ps(tmin)), _mm_cmple_ps(t, _mm_set1_ps(tmax)));
+    const __m128 in_range =
+        _mm_and_ps(_mm_cmpge_ps(t, _mm_set1_ps(tmin)), _mm_cmple_ps(t, _mm_set1_ps(tmax)));
     _mm_storeu_ps(t_out, t);
     _mm_storeu_ps(u_out, _mm_mul_ps(v, inv_det));
     _mm_storeu_ps(v_out, _mm_mul_ps(e, inv_det));
@@ -228,23 +240,78 @@ struct Watertight4 {
   }
 };
 
+// One query's traversal, advanced a node or a leaf at a time. Must not move once constructed.
 template <bool AnyHit>
-bool traverse(std::span<const WideNode> nodes, std::span<const TriangleBlock> blocks, const Ray& ray,
-              const RobustRay& r, Hit& hit) {
-  const WatertightRay w(ray);
-  const Watertight4 w4(w);
-  const Slab8 slab(r);
+class Traversal {
+ public:
+  Traversal(std::span<const WideNode> nodes, std::span<const TriangleBlock> blocks, const Ray& ray,
+            const Aabb& scene, float magnitude, Hit& hit)
+      : nodes_(nodes),
+        blocks_(blocks),
+        ray_(ray),
+        r_(ray, scene, magnitude),
+        w_(ray),
+        w4_(w_),
+        slab_(r_),
+        hit_(hit) {}
+  Traversal(const Traversal&) = delete;
+  Traversal& operator=(const Traversal&) = delete;
+
+  // Visits the current node or leaf; false once the query is answered.
+  bool step() {
+    if (current_.count == 0) {  // a wide node: enter the nearest hit child, push the others
+      const WideNode& n = nodes_[current_.child];
+      alignas(32) float t_entry[kWideWidth];
+      unsigned mask = slab_.test(n, ray_.tmin, hit_.t, t_entry);
+      if (mask != 0) {
+        int i = std::countr_zero(mask);
+        mask &= mask - 1;
+        Entry nearest{n.child[i], n.count[i], t_entry[i]};
+        const int base = sp_;
+        while (mask != 0) {  // keep this node's entries ordered: farther ones lower
+          i = std::countr_zero(mask);
+          mask &= mask - 1;
+          Entry e{n.child[i], n.count[i], t_entry[i]};
+          if (e.t < nearest.t) std::swap(e, nearest);
+          int j = sp_++;
+          for (; j > base && stack_[j - 1].t < e.t; --j) stack_[j] = stack_[j - 1];
+          stack_[j] = e;
+        }
+        return enter(nearest);
+      }
+    } else if (leaf(current_.child, current_.count)) {
+      occluded_ = true;
+      return false;
+    }
+    for (;;) {  // the next entry not behind the closest hit
+      if (sp_ == 0) return false;
+      const Entry e = stack_[--sp_];
+      if (e.t <= hit_.t) return enter(e);
+    }
+  }
+
+  bool occluded() const { return occluded_; }
+
+ private:
+  bool enter(const Entry& e) {
+    current_ = e;
+    prefetch(e.count == 0 ? static_cast<const void*>(&nodes_[e.child])
+                          : static_cast<const void*>(&blocks_[e.child]));
+    return true;
+  }
+
   // Tests a leaf's blocks; true when an any-hit query is answered.
-  const auto leaf = [&](std::uint32_t first, std::uint32_t count) {
+  bool leaf(std::uint32_t first, std::uint32_t count) {
     for (std::uint32_t i = first; i < first + count; ++i) {
-      const TriangleBlock& b = blocks[i];
+      const TriangleBlock& b = blocks_[i];
       alignas(16) float t[kBlockWidth], u[kBlockWidth], v[kBlockWidth];
       unsigned scalar;
-      unsigned found = w4.test(b, ray.tmin, AnyHit ? ray.tmax : hit.t, t, u, v, scalar);
+      unsigned found = w4_.test(b, ray_.tmin, AnyHit ? ray_.tmax : hit_.t, t, u, v, scalar);
       while (scalar != 0) {  // edge cases: the scalar test decides in double precision
         const int lane = std::countr_zero(scalar);
         scalar &= scalar - 1;
-        if (intersect_triangle(w, b.triangle(lane), ray.tmin, AnyHit ? ray.tmax : hit.t, t[lane], u[lane], v[lane]))
+        if (intersect_triangle(w_, b.triangle(lane), ray_.tmin, AnyHit ? ray_.tmax : hit_.t,
+                               t[lane], u[lane], v[lane]))
           found |= 1u << lane;
       }
       if constexpr (AnyHit) {
@@ -254,49 +321,26 @@ bool traverse(std::span<const WideNode> nodes, std::span<const TriangleBlock> bl
           const int lane = std::countr_zero(found);
           found &= found - 1;
           const Hit candidate{t[lane], b.id[lane], u[lane], v[lane]};
-          if (candidate.closer_than(hit)) hit = candidate;
+          if (candidate.closer_than(hit_)) hit_ = candidate;
         }
       }
     }
     return false;
-  };
-  Entry stack[kStackSize];
-  int sp = 0;
-  Entry current{0, 0, 0};
-  alignas(32) float t_entry[kWideWidth];
-  for (;;) {
-    if (current.count == 0) {  // a wide node: enter the nearest hit child, push the others
-      const WideNode& n = nodes[current.child];
-      unsigned mask = slab.test(n, ray.tmin, hit.t, t_entry);
-      if (mask != 0) {
-        int i = std::countr_zero(mask);
-        mask &= mask - 1;
-        Entry nearest{n.child[i], n.count[i], t_entry[i]};
-        const int base = sp;
-        while (mask != 0) {  // keep this node's entries ordered: farther ones lower
-          i = std::countr_zero(mask);
-          mask &= mask - 1;
-          Entry e{n.child[i], n.count[i], t_entry[i]};
-          if (e.t < nearest.t) std::swap(e, nearest);
-          int j = sp++;
-          for (; j > base && stack[j - 1].t < e.t; --j) stack[j] = stack[j - 1];
-          stack[j] = e;
-        }
-        current = nearest;
-        prefetch(current.count == 0 ? static_cast<const void*>(&nodes[current.child])
-                                    : static_cast<const void*>(&blocks[current.child]));
-        continue;
-      }
-    } else if (leaf(current.child, current.count)) {
-      return true;
-    }
-    for (;;) {  // the next entry not behind the closest hit
-      if (sp == 0) return hit.found();
-      current = stack[--sp];
-      if (current.t <= hit.t) break;
-    }
   }
-}
+
+  std::span<const WideNode> nodes_;
+  std::span<const TriangleBlock> blocks_;
+  const Ray& ray_;
+  const RobustRay r_;
+  const WatertightRay w_;
+  const Watertight4 w4_;
+  const Slab8 slab_;
+  Hit& hit_;
+  bool occluded_ = false;
+  Entry current_{0, 0, 0};  // the root
+  int sp_ = 0;
+  Entry stack_[kStackSize];
+};
 
 }  // namespace
 
@@ -329,16 +373,19 @@ void WideBvh::refit(std::span<const BvhNode> nodes, std::span<const Triangle> tr
 
 void WideBvh::intersect(const Ray& ray, const Aabb& scene, float magnitude, Hit& hit) const {
   if (nodes_.empty()) return;
-  const RobustRay r(ray, scene, magnitude);
-  traverse<false>(nodes_, blocks_, ray, r, hit);
+  Traversal<false> traversal(nodes_, blocks_, ray, scene, magnitude, hit);
+  while (traversal.step()) {
+  }
 }
 
 bool WideBvh::occluded(const Ray& ray, const Aabb& scene, float magnitude) const {
   if (nodes_.empty()) return false;
-  const RobustRay r(ray, scene, magnitude);
   Hit hit;
   hit.t = ray.tmax;
-  return traverse<true>(nodes_, blocks_, ray, r, hit);
+  Traversal<true> traversal(nodes_, blocks_, ray, scene, magnitude, hit);
+  while (traversal.step()) {
+  }
+  return traversal.occluded();
 }
 
 }  // namespace splitray

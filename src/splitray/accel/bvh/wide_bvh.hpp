@@ -32,7 +32,9 @@ struct alignas(32) TriangleBlock {
   float v[9][kBlockWidth];
   std::uint32_t id[kBlockWidth];
   Triangle triangle(int lane) const {
-    return {{v[0][lane], v[1][lane], v[2][lane]}, {v[3][lane], v[4][lane], v[5][lane]}, {v[6][lane], v[7][lane], v[8][lane]}};
+    return {{v[0][lane], v[1][lane], v[2][lane]},
+            {v[3][lane], v[4][lane], v[5][lane]},
+            {v[6][lane], v[7][lane], v[8][lane]}};
   }
   void set(int lane, const Triangle& t, std::uint32_t prim);
 };
@@ -42,7 +44,8 @@ class WideBvh {
  public:
   // Collapses `nodes` (root at 0, children side by side; leaves index `ids`), greedily
   // opening the child with the largest surface area until a node has eight children.
-  void collapse(std::span<const BvhNode> nodes, std::span<const std::uint32_t> ids, std::span<const Triangle> triangles);
+  void collapse(std::span<const BvhNode> nodes, std::span<const std::uint32_t> ids,
+                std::span<const Triangle> triangles);
   // After a refit of the binary tree (same topology): its boxes and the moved triangles.
   void refit(std::span<const BvhNode> nodes, std::span<const Triangle> triangles);
 
@@ -57,9 +60,9 @@ class WideBvh {
   std::span<const WideNode> nodes() const { return nodes_; }
 
  private:
-  std::vector<WideNode> nodes_;           // root at 0
-  std::vector<std::uint32_t> source_;     // binary node of each slot (kInvalidId: empty)
-  std::vector<TriangleBlock> blocks_;     // leaf triangles, leaf after leaf
+  std::vector<WideNode> nodes_;        // root at 0
+  std::vector<std::uint32_t> source_;  // binary node of each slot (kInvalidId: empty)
+  std::vector<TriangleBlock> blocks_;  // leaf triangles, leaf after leaf
 };
 
 }  // namespace splitray
