@@ -9,7 +9,7 @@ packages=(
   cmake g++ make pkg-config
   # libraries
   libembree-dev libtbb-dev libassimp-dev zlib1g-dev nlohmann-json3-dev libcli11-dev libfmt-dev
-  libstb-dev libnanoflann-dev libflann-dev
+  libstb-dev libnanoflann-dev libflann-dev liblz4-dev
   # OpenGL (hybrid renderer: EGL headless on Mesa llvmpipe, GLFW windows under Xvfb), plots
   libegl-dev libgl-dev libopengl-dev libegl-mesa0 libgl1-mesa-dri libglfw3-dev xvfb xauth
   python3-matplotlib
