@@ -86,8 +86,7 @@ std::string markdown_report(const Json& report) {
       "Ratios (×) are to **Embree medium** (its default build quality) on the same mesh in the "
       "same run: build time (lower is better) and throughput (higher is better). *1-ray*: the "
       "structure's single-ray call on every core (Embree: `rtcIntersect1`); *batched*: its "
-      "batched call (Embree: `rtcIntersect8` packets, coherent `rtcIntersect1M` streams for rays "
-      "from one eye). *check*: hit count and id checksum against kd sah's on the same rays "
+      "batched call (Embree: `rtcIntersect8` packets). *check*: hit count and id checksum against kd sah's on the same rays "
       "(Embree is not watertight and breaks ties differently, so a few rays may differ).\n\n";
 
   out += "## Build\n\n| mesh | triangles | structure | build ms | × Embree | SAH cost | cost evals | nodes | memory |\n";

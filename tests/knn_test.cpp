@@ -551,6 +551,10 @@ TEST(KnnTest, BrokenPointFilesAreClearErrors) {
           std::string(20, '\0'),
       "more than the file holds");
   check("no_magic.ply", "plx\n", "not a PLY file");
+  check("header_only.ply",  // no newline after end_header, no body
+        "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
+        "end_header",
+        "ends inside element 'vertex'");
   check("no_end.ply", "ply\nformat ascii 1.0\nelement vertex 1\n", "end_header");
   check("no_x.ply",
         "ply\nformat ascii 1.0\nelement vertex 1\nproperty float y\nproperty float "

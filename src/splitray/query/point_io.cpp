@@ -81,7 +81,7 @@ PlyHeader parse_ply_header(const std::string& path, const std::string& data) {
     if (end == std::string::npos) end = data.size();
     line = data.substr(pos, end - pos);
     if (!line.empty() && line.back() == '\r') line.pop_back();
-    pos = end + 1;
+    pos = std::min(end + 1, data.size());
     ++line_number;
     return true;
   };

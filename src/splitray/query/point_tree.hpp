@@ -21,7 +21,9 @@ namespace splitray {
 
 struct PointTreeConfig {
   std::string builder = "vvh";  // vvh | sah | median
-  int leaf_size = 10;           // a node with this many points or fewer becomes a leaf
+  // A node with this many points or fewer becomes a leaf; VVH/SAH also stop where splitting
+  // costs more than the leaf (Eq. 4), for nodes of up to 1024 points.
+  int leaf_size = 10;
   // VVH/SAH: cells are expanded by this radius on every side (paper 003: the search radius;
   // 1e-4 for general neighbourhoods). <= 0: automatic, 1e-4 × the bounding-box diagonal.
   float radius = 0;

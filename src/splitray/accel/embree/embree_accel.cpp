@@ -3,7 +3,6 @@
 #include <embree3/rtcore.h>
 
 #include <algorithm>
-#include <array>
 #include <atomic>
 #include <mutex>
 #include <string>
@@ -155,73 +154,30 @@ class EmbreeAccel final : public Accel {
     return r.tfar < 0;  // Embree sets tfar to -inf on a hit
   }
 
-  // Batched calls, measured on 2 AVX-512 cores (dragon, 1M rays): rays that share an origin
-  // (camera rays) go as one coherent stream (rtcIntersect1M, ~1.7x the packets), all others
-  // as packets of 8 (rtcIntersect8, ~1.05-1.3x rtcIntersect1; 16 was slower, and incoherent
-  // streams slower still).
+  // Batched calls: packets of 8 (rtcIntersect8 / rtcOccluded8), measured on 2 AVX-512 cores
+  // (dragon, 1M rays) at ~1.05-1.35x rtcIntersect1; 16-wide packets and incoherent streams
+  // were slower. Coherent streams (rtcIntersect1M) were ~1.5x faster still on camera rays, but
+  // they pick other primitives at ties (coplanar faces) and other last bits of t than
+  // rtcIntersect1 (~0.3% of the rays in sibenik), which the interface does not allow.
   void intersect(std::span<const Ray> rays, std::span<Hit> hits) const override {
     parallel_chunks(rays.size(), kChunk, [&](std::size_t begin, std::size_t end) {
-      for (std::size_t i = begin; i < end; i += kChunk) {
-        const std::size_t m = std::min(kChunk, end - i);
-        if (same_origin(rays.subspan(i, m)))
-          intersect_stream(rays.subspan(i, m), hits.subspan(i, m));
-        else
-          for (std::size_t j = 0; j < m; j += kPacket)
-            intersect_packet(rays.subspan(i + j, std::min(kPacket, m - j)), hits.subspan(i + j));
-      }
+      for (std::size_t i = begin; i < end; i += kPacket)
+        intersect_packet(rays.subspan(i, std::min(kPacket, end - i)), hits.subspan(i));
     });
   }
 
   void occluded(std::span<const Ray> rays, std::span<std::uint8_t> result) const override {
     parallel_chunks(rays.size(), kChunk, [&](std::size_t begin, std::size_t end) {
-      for (std::size_t i = begin; i < end; i += kChunk) {
-        const std::size_t m = std::min(kChunk, end - i);
-        if (same_origin(rays.subspan(i, m)))
-          occluded_stream(rays.subspan(i, m), result.subspan(i, m));
-        else
-          for (std::size_t j = 0; j < m; j += kPacket)
-            occluded_packet(rays.subspan(i + j, std::min(kPacket, m - j)), result.subspan(i + j));
-      }
+      for (std::size_t i = begin; i < end; i += kPacket)
+        occluded_packet(rays.subspan(i, std::min(kPacket, end - i)), result.subspan(i));
     });
   }
 
   const AccelStats& stats() const override { return stats_; }
 
  private:
-  static constexpr std::size_t kChunk = 256;  // rays per stream and per parallel task
+  static constexpr std::size_t kChunk = 256;  // rays per parallel task
   static constexpr std::size_t kPacket = 8;
-
-  static bool same_origin(std::span<const Ray> rays) {
-    for (const Ray& ray : rays)
-      if (!(ray.org == rays.front().org)) return false;
-    return true;
-  }
-
-  void intersect_stream(std::span<const Ray> rays, std::span<Hit> hits) const {
-    RTCIntersectContext context;
-    rtcInitIntersectContext(&context);
-    context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-    std::array<RTCRayHit, kChunk> stream;
-    for (std::size_t j = 0; j < rays.size(); ++j) {
-      fill_ray(rays[j], stream[j].ray);
-      stream[j].hit.geomID = RTC_INVALID_GEOMETRY_ID;
-      stream[j].hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-    }
-    rtcIntersect1M(scene_.get(), &context, stream.data(), static_cast<unsigned>(rays.size()),
-                   sizeof(RTCRayHit));
-    for (std::size_t j = 0; j < rays.size(); ++j) hits[j] = to_hit(stream[j]);
-  }
-
-  void occluded_stream(std::span<const Ray> rays, std::span<std::uint8_t> result) const {
-    RTCIntersectContext context;
-    rtcInitIntersectContext(&context);
-    context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-    std::array<RTCRay, kChunk> stream;
-    for (std::size_t j = 0; j < rays.size(); ++j) fill_ray(rays[j], stream[j]);
-    rtcOccluded1M(scene_.get(), &context, stream.data(), static_cast<unsigned>(rays.size()),
-                  sizeof(RTCRay));
-    for (std::size_t j = 0; j < rays.size(); ++j) result[j] = stream[j].tfar < 0 ? 1 : 0;
-  }
 
   // Fills packet lanes [0, rays.size()) and marks the rest invalid (a copy of the last ray).
   template <typename Packet>
