@@ -2,8 +2,8 @@
 
 #include <cmath>
 #include <cstdlib>
-#include <numbers>
 #include <filesystem>
+#include <numbers>
 
 #include "splitray/core/errors.hpp"
 #include "splitray/render/data_dir.hpp"
@@ -38,19 +38,25 @@ const std::vector<Known>& shared_meshes() {
       {"sibenik", "static_sibenik/sibenik.obj", look({-17, -13.6f, 0}, {19, -9, 0}, 60),
        "inside the church"},
       // A closed box (front wall included): from just inside the front wall to the back wall.
-      {"cornell_box", "static_cornell_box/cornell_box.obj", look({278, 274, 20}, {278, 274, 559}, 60),
-       "inside the room"},
-      {"cat", "static_sumner_cat_lion_poses/cat-poses/cat-reference.obj.gz", std::nullopt, "outside"},
-      {"lion", "static_sumner_cat_lion_poses/lion-poses/lion-reference.obj.gz", std::nullopt, "outside"},
-      {"elephant", "anim_elephant_gallop/frames/elephant-gallop-01.obj.gz", std::nullopt, "outside"},
+      {"cornell_box", "static_cornell_box/cornell_box.obj",
+       look({278, 274, 20}, {278, 274, 559}, 60), "inside the room"},
+      {"cat", "static_sumner_cat_lion_poses/cat-poses/cat-reference.obj.gz", std::nullopt,
+       "outside"},
+      {"lion", "static_sumner_cat_lion_poses/lion-poses/lion-reference.obj.gz", std::nullopt,
+       "outside"},
+      {"elephant", "anim_elephant_gallop/frames/elephant-gallop-01.obj.gz", std::nullopt,
+       "outside"},
       {"samba", "anim_samba/frames/samba_0000.obj.gz", std::nullopt, "outside"},
       {"walking_cat", "anim_walking_cat/frames/mesh.01.obj", std::nullopt, "outside"},
       {"faerie", "anim_md2_faerie/frames/faerie_000.obj", std::nullopt, "outside"},
-      {"cesium_man", "skinned_khronos_gltf1/CesiumMan/collada/CesiumMan.dae", std::nullopt, "outside"},
-      {"armadillo_rollers", "anim_ccd_frame_pairs/armadillo-rollers/frames/326.ply", std::nullopt, "outside"},
+      {"cesium_man", "skinned_khronos_gltf1/CesiumMan/collada/CesiumMan.dae", std::nullopt,
+       "outside"},
+      {"armadillo_rollers", "anim_ccd_frame_pairs/armadillo-rollers/frames/326.ply", std::nullopt,
+       "outside"},
       {"cloth_funnel", "anim_ccd_frame_pairs/cloth-funnel/frames/227.ply", std::nullopt, "outside"},
       {"rod_twist", "anim_ccd_frame_pairs/rod-twist/frames/3036.ply", std::nullopt, "outside"},
-      {"n_body", "anim_ccd_frame_pairs/n-body-simulation/frames/balls16_18.ply", std::nullopt, "outside"},
+      {"n_body", "anim_ccd_frame_pairs/n-body-simulation/frames/balls16_18.ply", std::nullopt,
+       "outside"},
   };
   return meshes;
 }
@@ -123,8 +129,8 @@ std::vector<BenchMesh> select_meshes(const std::vector<BenchMesh>& all,
     if (!fs::is_regular_file(name)) {
       std::string known;
       for (const BenchMesh& mesh : all) known += (known.empty() ? "" : ", ") + mesh.name;
-      throw Error("--meshes", "'" + name + "' is neither a benchmark mesh (" + known +
-                                  ") nor a mesh file");
+      throw Error("--meshes",
+                  "'" + name + "' is neither a benchmark mesh (" + known + ") nor a mesh file");
     }
     selected.push_back({fs::path(name).stem().string(), name, std::nullopt, "outside"});
   }

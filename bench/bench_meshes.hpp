@@ -13,10 +13,10 @@
 namespace splitray::bench {
 
 struct BenchMesh {
-  std::string name;                // short, unique; what --meshes selects
-  std::string path;                // resolved file path
-  std::optional<Camera> camera;    // none = fit_camera (outside the object)
-  std::string view;                // "outside" or "inside (...)" for the reports
+  std::string name;              // short, unique; what --meshes selects
+  std::string path;              // resolved file path
+  std::optional<Camera> camera;  // none = fit_camera (outside the object)
+  std::string view;              // "outside" or "inside (...)" for the reports
 };
 
 // A camera outside the object, looking at it from the direction of Camera::frame (front,

@@ -19,12 +19,14 @@ std::string number(const Json& value, const char* format = "{:.2f}") {
 
 std::string with_ratio(const Json& measurement) {
   std::string text = number(measurement.value("mrays_per_s", Json(nullptr)));
-  if (measurement.contains("ratio")) text += fmt::format(" ({:.2f}×)", measurement["ratio"].get<double>());
+  if (measurement.contains("ratio"))
+    text += fmt::format(" ({:.2f}×)", measurement["ratio"].get<double>());
   return text;
 }
 
 std::string mib(std::uint64_t bytes) {
-  return bytes == 0 ? "–" : fmt::format("{:.1f} MiB", static_cast<double>(bytes) / (1024.0 * 1024.0));
+  return bytes == 0 ? "–"
+                    : fmt::format("{:.1f} MiB", static_cast<double>(bytes) / (1024.0 * 1024.0));
 }
 
 std::string check(const Json& row) {
@@ -35,7 +37,8 @@ std::string check(const Json& row) {
     if (!text.empty()) text += "; ";
     text += t["matches_reference"].get<bool>()
                 ? kind + " ✓"
-                : fmt::format("{} ✗ {} rays differ", kind, t["rays_differing_from_reference"].get<std::uint64_t>());
+                : fmt::format("{} ✗ {} rays differ", kind,
+                              t["rays_differing_from_reference"].get<std::uint64_t>());
     if (!t.value("single_equals_batched", true)) text += " (1-ray ≠ batched)";
   }
   return text.empty() ? "–" : text;
@@ -86,21 +89,27 @@ std::string markdown_report(const Json& report) {
       "Ratios (×) are to **Embree medium** (its default build quality) on the same mesh in the "
       "same run: build time (lower is better) and throughput (higher is better). *1-ray*: the "
       "structure's single-ray call on every core (Embree: `rtcIntersect1`); *batched*: its "
-      "batched call (Embree: `rtcIntersect8` packets). *check*: hit count and id checksum against kd sah's on the same rays "
+      "batched call (Embree: `rtcIntersect8` packets). *check*: hit count and id checksum against "
+      "kd sah's on the same rays "
       "(Embree is not watertight and breaks ties differently, so a few rays may differ).\n\n";
 
-  out += "## Build\n\n| mesh | triangles | structure | build ms | × Embree | SAH cost | cost evals | nodes | memory |\n";
+  out +=
+      "## Build\n\n| mesh | triangles | structure | build ms | × Embree | SAH cost | cost evals | "
+      "nodes | memory |\n";
   out += "|---|--:|---|--:|--:|--:|--:|--:|--:|\n";
   for (const Json& mesh : report["meshes"]) {
     for (const Json& row : mesh["results"]) {
-      const std::string structure = row["accel"].get<std::string>() + " " + row["builder"].get<std::string>();
+      const std::string structure =
+          row["accel"].get<std::string>() + " " + row["builder"].get<std::string>();
       if (row.contains("error")) {
-        out += fmt::format("| {} | {} | {} | failed: {} | | | | | |\n", mesh["name"].get<std::string>(),
-                           number(mesh["triangles"]), structure, row["error"].get<std::string>());
+        out += fmt::format("| {} | {} | {} | failed: {} | | | | | |\n",
+                           mesh["name"].get<std::string>(), number(mesh["triangles"]), structure,
+                           row["error"].get<std::string>());
         continue;
       }
-      out += fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", mesh["name"].get<std::string>(),
-                         number(mesh["triangles"]), structure, number(row["build_ms"]),
+      out += fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+                         mesh["name"].get<std::string>(), number(mesh["triangles"]), structure,
+                         number(row["build_ms"]),
                          row.contains("build_ratio") ? number(row["build_ratio"]) : "–",
                          number(row["sah_cost"], "{:.1f}"), number(row["cost_evals"]),
                          row["nodes"].get<std::uint64_t>() ? number(row["nodes"]) : "–",
@@ -108,7 +117,9 @@ std::string markdown_report(const Json& report) {
     }
   }
 
-  out += "\n## Trace (Mrays/s)\n\n| mesh | view | structure | primary 1-ray | primary batched | diffuse 1-ray | diffuse batched | check |\n";
+  out +=
+      "\n## Trace (Mrays/s)\n\n| mesh | view | structure | primary 1-ray | primary batched | "
+      "diffuse 1-ray | diffuse batched | check |\n";
   out += "|---|---|---|--:|--:|--:|--:|---|\n";
   for (const Json& mesh : report["meshes"]) {
     for (const Json& row : mesh["results"]) {
@@ -127,16 +138,19 @@ std::string markdown_report(const Json& report) {
         view += fmt::format(", {:.0f}% hit", 100.0 * row["trace"]["primary"]["hits"].get<double>() /
                                                  settings["rays_per_kind"].get<double>());
       out += fmt::format("| {} | {} | {} {} |{} {} |\n", mesh["name"].get<std::string>(), view,
-                         row["accel"].get<std::string>(),
-                         row["builder"].get<std::string>(), cells, check(row));
+                         row["accel"].get<std::string>(), row["builder"].get<std::string>(), cells,
+                         check(row));
     }
   }
 
   out += "\n## Targets of issue 3\n\n";
-  out += "Build-time ratios are speed-ups (sah's time / the builder's); trace ratios are kd sah's "
-         "tree, batched, over Embree medium's `rtcIntersect1`.\n\n";
-  out += "| mesh | golden speed-up (≥ 4) | golden SAH / sah (≤ 1.05) | binned speed-up (≥ 10) | "
-         "binned SAH / sah (≤ 1.10) | binned time / Embree (≤ 1.5) | primary (≥ 1.0) | diffuse (≥ 0.7) |\n";
+  out +=
+      "Build-time ratios are speed-ups (sah's time / the builder's); trace ratios are kd sah's "
+      "tree, batched, over Embree medium's `rtcIntersect1`.\n\n";
+  out +=
+      "| mesh | golden speed-up (≥ 4) | golden SAH / sah (≤ 1.05) | binned speed-up (≥ 10) | "
+      "binned SAH / sah (≤ 1.10) | binned time / Embree (≤ 1.5) | primary (≥ 1.0) | diffuse (≥ "
+      "0.7) |\n";
   out += "|---|--:|--:|--:|--:|--:|--:|--:|\n";
   for (const Json& mesh : report["meshes"]) {
     const Json& rows = mesh["results"];
@@ -144,14 +158,15 @@ std::string markdown_report(const Json& report) {
     const Json* golden = find_row(rows, "kd", "golden");
     const Json* binned = find_row(rows, "kd", "binned");
     const Json* embree = find_row(rows, "embree", "medium");
-    out += fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} |\n", mesh["name"].get<std::string>(),
-                       target(ratio(sah, golden, "build_ms"), 4, true),
-                       target(ratio(golden, sah, "sah_cost"), 1.05, false),
-                       target(ratio(sah, binned, "build_ms"), 10, true),
-                       target(ratio(binned, sah, "sah_cost"), 1.10, false),
-                       target(ratio(binned, embree, "build_ms"), 1.5, false),
-                       target(trace_target(sah, "primary"), 1.0, true),
-                       target(trace_target(sah, "diffuse"), 0.7, true));
+    out +=
+        fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} |\n", mesh["name"].get<std::string>(),
+                    target(ratio(sah, golden, "build_ms"), 4, true),
+                    target(ratio(golden, sah, "sah_cost"), 1.05, false),
+                    target(ratio(sah, binned, "build_ms"), 10, true),
+                    target(ratio(binned, sah, "sah_cost"), 1.10, false),
+                    target(ratio(binned, embree, "build_ms"), 1.5, false),
+                    target(trace_target(sah, "primary"), 1.0, true),
+                    target(trace_target(sah, "diffuse"), 0.7, true));
   }
 
   if (!report["notes"].empty()) {

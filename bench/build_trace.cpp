@@ -40,10 +40,12 @@ std::vector<Structure> structures(const std::vector<std::string>& accels) {
   for (const std::string& accel : accels) {
     std::vector<std::string> builders = builder_names(accel);  // throws on an unknown name
     if (accel == "embree") builders = {"low", "medium", "high"};
-    std::stable_partition(builders.begin(), builders.end(), [](const std::string& b) { return b == "sah"; });
+    std::stable_partition(builders.begin(), builders.end(),
+                          [](const std::string& b) { return b == "sah"; });
     for (const std::string& b : builders) list.push_back({accel, b});
   }
-  std::stable_partition(list.begin(), list.end(), [](const Structure& s) { return s.accel != "embree"; });
+  std::stable_partition(list.begin(), list.end(),
+                        [](const Structure& s) { return s.accel != "embree"; });
   return list;
 }
 
@@ -130,8 +132,8 @@ Json measure(const Structure& s, std::span<const Triangle> triangles, std::vecto
     Json t;
     t["batched"] = throughput(set.rays.size(), runs, [&] { accel->intersect(set.rays, hits); });
     // Accel's own loop of single-ray calls (for Embree: rtcIntersect1 on every core).
-    t["single"] = throughput(set.rays.size(), runs,
-                             [&] { accel->Accel::intersect(set.rays, single_hits); });
+    t["single"] =
+        throughput(set.rays.size(), runs, [&] { accel->Accel::intersect(set.rays, single_hits); });
     const Checksum c = checksum(hits);
     t["hits"] = c.hits;
     t["id_checksum"] = c.id_checksum;
@@ -152,7 +154,8 @@ Json measure(const Structure& s, std::span<const Triangle> triangles, std::vecto
 void add_ratios(Json& rows) {
   const Json* yardstick = nullptr;
   for (const Json& row : rows)
-    if (row.value("accel", "") == "embree" && row.value("builder", "") == "medium" && !row.contains("error"))
+    if (row.value("accel", "") == "embree" && row.value("builder", "") == "medium" &&
+        !row.contains("error"))
       yardstick = &row;
   if (!yardstick) return;
   const Json e = *yardstick;
@@ -163,7 +166,8 @@ void add_ratios(Json& rows) {
       if (!e["trace"].contains(kind)) continue;
       const Json& et = e["trace"][kind];
       for (const char* mode : {"batched", "single"})
-        t[mode]["ratio"] = t[mode]["mrays_per_s"].get<double>() / et[mode]["mrays_per_s"].get<double>();
+        t[mode]["ratio"] =
+            t[mode]["mrays_per_s"].get<double>() / et[mode]["mrays_per_s"].get<double>();
       // The target compares with Embree's rtcIntersect1.
       t["batched"]["ratio_to_embree_single"] =
           t["batched"]["mrays_per_s"].get<double>() / et["single"]["mrays_per_s"].get<double>();
@@ -181,8 +185,9 @@ Json camera_json(const Camera& c, const std::string& view) {
 }  // namespace
 
 void add_build_trace_options(CLI::App& command, BuildTraceOptions& options) {
-  command.add_option("--runs", options.runs,
-                     "Timed runs per measurement; the median is reported (default 5, --quick 1)")
+  command
+      .add_option("--runs", options.runs,
+                  "Timed runs per measurement; the median is reported (default 5, --quick 1)")
       ->check(CLI::PositiveNumber);
   command.add_option("--rays", options.rays, "Rays per kind (default 1048576, --quick 65536)")
       ->check(CLI::PositiveNumber);
@@ -208,8 +213,8 @@ Json run_build_trace(const BuildTraceOptions& options) {
   const ThreadLimit limit(options.threads);
 
   std::vector<std::string> notes;
-  const std::vector<BenchMesh> meshes =
-      select_meshes(benchmark_meshes(options.quick && options.meshes.empty(), notes), options.meshes);
+  const std::vector<BenchMesh> meshes = select_meshes(
+      benchmark_meshes(options.quick && options.meshes.empty(), notes), options.meshes);
   const std::vector<Structure> list = structures(options.accels);
 
   Json report;
@@ -233,7 +238,8 @@ Json run_build_trace(const BuildTraceOptions& options) {
       mr["load_ms"] = timer.ms();
     } catch (const Error& e) {
       notes.push_back(mesh.name + ": " + e.what());
-      fmt::print(stderr, "[{}/{}] {}: cannot load: {}\n", m + 1, meshes.size(), mesh.name, e.what());
+      fmt::print(stderr, "[{}/{}] {}: cannot load: {}\n", m + 1, meshes.size(), mesh.name,
+                 e.what());
       continue;
     }
     mr["triangles"] = triangles.size();
@@ -258,9 +264,11 @@ Json run_build_trace(const BuildTraceOptions& options) {
       const bool is_reference = s.accel == "kd" && s.builder == "sah";
       try {
         Json row = measure(s, triangles, sets, options, runs, is_reference);
-        std::string line = fmt::format("  {:<14} build {:9.2f} ms", s.label(), row["build_ms"].get<double>());
+        std::string line =
+            fmt::format("  {:<14} build {:9.2f} ms", s.label(), row["build_ms"].get<double>());
         for (auto& [kind, t] : row["trace"].items())
-          line += fmt::format("  {} {:6.2f}/{:6.2f} Mrays/s{}", kind, t["single"]["mrays_per_s"].get<double>(),
+          line += fmt::format("  {} {:6.2f}/{:6.2f} Mrays/s{}", kind,
+                              t["single"]["mrays_per_s"].get<double>(),
                               t["batched"]["mrays_per_s"].get<double>(),
                               t.value("matches_reference", true) ? "" : " (differs from kd sah)");
         fmt::print(stderr, "{}\n", line);

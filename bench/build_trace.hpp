@@ -5,21 +5,20 @@
 // medium measured in the same run, with hit checksums compared to kd sah's.
 // Shared by `splitray_bench` and `splitray bench build-trace`.
 #include <CLI/CLI.hpp>
-#include <nlohmann/json.hpp>
-
 #include <cstdint>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
 namespace splitray::bench {
 
 struct BuildTraceOptions {
-  int runs = 0;                    // timed runs per measurement (median); 0 = 5 (quick: 1)
-  std::size_t rays = 0;            // rays per kind; 0 = 2^20 (quick: 2^16)
-  std::vector<std::string> meshes; // names (or files); empty = all
+  int runs = 0;                     // timed runs per measurement (median); 0 = 5 (quick: 1)
+  std::size_t rays = 0;             // rays per kind; 0 = 2^20 (quick: 2^16)
+  std::vector<std::string> meshes;  // names (or files); empty = all
   std::vector<std::string> accels = {"kd", "embree"};
-  bool quick = false;              // smoke test: 2 vendored meshes, 1 run, 64k rays
-  int threads = 0;                 // 0 = all cores
+  bool quick = false;  // smoke test: 2 vendored meshes, 1 run, 64k rays
+  int threads = 0;     // 0 = all cores
   std::uint64_t seed = 1;
   std::string json_path, markdown_path;
 };

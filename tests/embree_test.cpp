@@ -107,8 +107,8 @@ Accel* EmbreeTest::brute_ = nullptr;
 std::vector<Hit>* EmbreeTest::expected_ = nullptr;
 
 TEST_F(EmbreeTest, RaySetHasHitsAndMisses) {
-  const auto hits = std::count_if(expected_->begin(), expected_->end(),
-                                  [](const Hit& h) { return h.found(); });
+  const auto hits =
+      std::count_if(expected_->begin(), expected_->end(), [](const Hit& h) { return h.found(); });
   EXPECT_GT(hits, 2000);  // the aimed half
   EXPECT_LT(hits, 3900);  // many of the random half miss
 }
@@ -137,7 +137,8 @@ std::vector<Ray> camera_rays(std::span<const Triangle> triangles, std::size_t co
   Pcg32 rng(11);
   std::vector<Ray> rays;
   for (std::size_t i = 0; i < count; ++i) {
-    const Vec3 target = box.lo + box.extent() * Vec3{rng.next_float(), rng.next_float(), rng.next_float()};
+    const Vec3 target =
+        box.lo + box.extent() * Vec3{rng.next_float(), rng.next_float(), rng.next_float()};
     rays.push_back(Ray{eye, normalize(target - eye), 0, i % 3 == 0 ? kInfinity : 1e30f});
   }
   return rays;

@@ -7,7 +7,8 @@
 namespace splitray::app {
 
 void add_bench_command(CLI::App& app) {
-  CLI::App* bench = app.add_subcommand("bench", "Benchmarks, measured against Embree in the same run");
+  CLI::App* bench =
+      app.add_subcommand("bench", "Benchmarks, measured against Embree in the same run");
   bench->require_subcommand(1);
   auto options = std::make_shared<bench::BuildTraceOptions>();
   CLI::App* build_trace = bench->add_subcommand(

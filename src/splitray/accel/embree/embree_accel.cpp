@@ -19,18 +19,26 @@ RTCBuildQuality parse_quality(const std::string& builder) {
   if (builder == "low") return RTC_BUILD_QUALITY_LOW;
   if (builder == "high") return RTC_BUILD_QUALITY_HIGH;
   if (builder == "medium" || builder.empty()) return RTC_BUILD_QUALITY_MEDIUM;
-  throw Error("--builder", "'" + builder + "' is not a builder of --accel embree (known: medium, low, high)");
+  throw Error("--builder",
+              "'" + builder + "' is not a builder of --accel embree (known: medium, low, high)");
 }
 
 const char* error_name(RTCError code) {
   switch (code) {
-    case RTC_ERROR_NONE: return "no error";
-    case RTC_ERROR_INVALID_ARGUMENT: return "invalid argument";
-    case RTC_ERROR_INVALID_OPERATION: return "invalid operation";
-    case RTC_ERROR_OUT_OF_MEMORY: return "out of memory";
-    case RTC_ERROR_UNSUPPORTED_CPU: return "unsupported CPU";
-    case RTC_ERROR_CANCELLED: return "cancelled";
-    default: return "unknown error";
+    case RTC_ERROR_NONE:
+      return "no error";
+    case RTC_ERROR_INVALID_ARGUMENT:
+      return "invalid argument";
+    case RTC_ERROR_INVALID_OPERATION:
+      return "invalid operation";
+    case RTC_ERROR_OUT_OF_MEMORY:
+      return "out of memory";
+    case RTC_ERROR_UNSUPPORTED_CPU:
+      return "unsupported CPU";
+    case RTC_ERROR_CANCELLED:
+      return "cancelled";
+    default:
+      return "unknown error";
   }
 }
 
@@ -96,7 +104,8 @@ class EmbreeAccel final : public Accel {
     scene_.reset(rtcNewScene(device_.get()));
     check("creating the scene");
     rtcSetSceneBuildQuality(scene_.get(), quality);
-    rtcSetSceneFlags(scene_.get(), RTC_SCENE_FLAG_NONE);  // not ROBUST: Embree's defaults, the yardstick
+    rtcSetSceneFlags(scene_.get(),
+                     RTC_SCENE_FLAG_NONE);  // not ROBUST: Embree's defaults, the yardstick
     const std::unique_ptr<RTCGeometryTy, decltype(&rtcReleaseGeometry)> owner(
         rtcNewGeometry(device_.get(), RTC_GEOMETRY_TYPE_TRIANGLE), rtcReleaseGeometry);
     check("creating the geometry");
