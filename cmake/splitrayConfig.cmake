@@ -6,4 +6,8 @@ find_dependency(nlohmann_json)
 find_dependency(embree 3)
 find_package(PkgConfig REQUIRED)
 pkg_check_modules(STB REQUIRED IMPORTED_TARGET stb)
+# splitray_query links lz4 (FLANN's headers call it); render_gl needs OpenGL + EGL when built.
+pkg_check_modules(LZ4 REQUIRED IMPORTED_TARGET liblz4)
+find_package(OpenGL QUIET COMPONENTS OpenGL EGL)
+find_package(glfw3 QUIET)
 include(${CMAKE_CURRENT_LIST_DIR}/splitrayTargets.cmake)
