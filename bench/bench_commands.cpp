@@ -3,11 +3,24 @@
 #include <memory>
 
 #include "build_trace.hpp"
+#include "hybrid_bench.hpp"
 #include "knn_bench.hpp"
+#include "neural_bench.hpp"
 
 namespace splitray::bench {
 
 void add_bench_subcommands(CLI::App& bench) {
+  auto neural_options = std::make_shared<NeuralBenchOptions>();
+  CLI::App* neural = bench.add_subcommand(
+      "neural",
+      "Neural top + expansion (paper 003) against the expansion builder alone on held-out meshes: "
+      "SAH/VVH cost, Mrays/s, k-NN queries/s and inference time for 10^4..10^6 primitives");
+  add_neural_bench_options(*neural, *neural_options);
+  neural->callback([neural_options] {
+    // Non-zero when a neural tree answered differently: the report says where.
+    if (const int code = run_neural_bench(*neural_options); code != 0) throw CLI::RuntimeError(code);
+  });
+
   auto build_trace_options = std::make_shared<BuildTraceOptions>();
   CLI::App* build_trace = bench.add_subcommand(
       "build-trace",
@@ -25,6 +38,17 @@ void add_bench_subcommands(CLI::App& bench) {
   knn->callback([knn_options] {
     // Non-zero when structures disagreed on the answers: the report says which.
     if (const int code = run_knn_bench(*knn_options); code != 0) throw CLI::RuntimeError(code);
+  });
+
+  auto hybrid_options = std::make_shared<HybridBenchOptions>();
+  CLI::App* hybrid = bench.add_subcommand(
+      "hybrid",
+      "Hybrid GPU + CPU renderer (paper 002) against Whitted: frame times, per-pass times, CPU "
+      "ray share, PSNR and wrong shadow pixels with and without refinement; JSON, Markdown, PNG");
+  add_hybrid_bench_options(*hybrid, *hybrid_options);
+  hybrid->callback([hybrid_options] {
+    // Non-zero when a target that holds on every machine was missed: the report says which.
+    if (const int code = run_hybrid_bench(*hybrid_options); code != 0) throw CLI::RuntimeError(code);
   });
 }
 

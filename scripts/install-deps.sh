@@ -11,8 +11,10 @@ packages=(
   libembree-dev libtbb-dev libassimp-dev zlib1g-dev nlohmann-json3-dev libcli11-dev libfmt-dev
   libstb-dev libnanoflann-dev libflann-dev liblz4-dev
   # OpenGL (hybrid renderer: EGL headless on Mesa llvmpipe, GLFW windows under Xvfb), plots
-  libegl-dev libgl-dev libopengl-dev libegl-mesa0 libgl1-mesa-dri libglfw3-dev xvfb xauth
+  libglm-dev libegl-dev libgl-dev libopengl-dev libegl-mesa0 libgl1-mesa-dri libglfw3-dev xvfb xauth
   python3-matplotlib
+  # neural builder training (train/, paper 003): only splitray-train links it
+  libtorch-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
 )

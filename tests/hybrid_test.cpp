@@ -188,6 +188,62 @@ TEST_F(HybridTest, InterleavedEqualsSequential) {
   EXPECT_NE(images[0][0].pixels, images[0][1].pixels);
 }
 
+TEST_F(HybridTest, ShadowMapsAnswerSecondaryShadowsWithoutChangingTheImage) {
+  const Scene scene = small_scene();
+  HybridOptions o = small_options();
+  o.map_secondary_shadows = false;
+  HybridRenderer traced(scene, o);
+  const HybridFrame all_rays = traced.render_one(*scene.camera);
+  o.map_secondary_shadows = true;
+  HybridRenderer mapped(scene, o);
+  const HybridFrame with_maps = mapped.render_one(*scene.camera);
+  std::printf("secondary shadows: %llu answered by maps, cpu rays %llu -> %llu\n",
+              static_cast<unsigned long long>(with_maps.map_answers),
+              static_cast<unsigned long long>(all_rays.cpu_rays),
+              static_cast<unsigned long long>(with_maps.cpu_rays));
+  EXPECT_EQ(all_rays.map_answers, 0u);
+  EXPECT_GT(with_maps.map_answers, 0u);
+  // Each answer saves at least one ray (more where a transparent caster would be crossed).
+  EXPECT_LE(with_maps.cpu_rays + with_maps.map_answers, all_rays.cpu_rays);
+  EXPECT_GE(psnr_db(with_maps.image, all_rays.image), 45.0);
+}
+
+// Animation: geometry replaced between submits; frames in flight keep their own triangles, so
+// interleaved, sequential and a fresh renderer of each frame's triangles agree.
+TEST_F(HybridTest, NewTrianglesBetweenFramesKeepFramesInFlightIntact) {
+  const Scene scene = small_scene();
+  HybridOptions o = small_options();
+  o.width = 96;
+  o.height = 72;
+  const std::vector<Triangle> base = flatten(scene).triangles;
+  const auto moved = [&](int k) {
+    std::vector<Triangle> t = base;
+    for (Triangle& tri : t)
+      for (Vec3* v : {&tri.v0, &tri.v1, &tri.v2})
+        if (v->y > 0.01f) *v = *v + Vec3{0.15f * k, 0.05f * k, 0};  // all but the floor move
+    return t;
+  };
+  std::vector<Image> images[2];
+  for (int mode = 0; mode < 2; ++mode) {
+    o.interleaved = mode == 1;
+    HybridRenderer renderer(scene, o);
+    for (int k = 0; k < 3; ++k) {
+      if (k > 0) renderer.set_triangles(moved(k));
+      if (auto f = renderer.submit(*scene.camera)) images[mode].push_back(std::move(f->image));
+    }
+    if (auto f = renderer.finish()) images[mode].push_back(std::move(f->image));
+  }
+  ASSERT_EQ(images[0].size(), 3u);
+  ASSERT_EQ(images[1].size(), 3u);
+  for (int k = 0; k < 3; ++k) EXPECT_EQ(images[0][k].pixels, images[1][k].pixels) << "frame " << k;
+  // Frame 2 equals a renderer that had frame 2's triangles from the start (same flat normals).
+  HybridRenderer fresh(scene, o);
+  fresh.set_triangles(moved(2));
+  EXPECT_EQ(fresh.render_one(*scene.camera).image.pixels, images[1][2].pixels);
+  EXPECT_NE(images[1][0].pixels, images[1][2].pixels);
+  EXPECT_THROW(fresh.set_triangles(std::vector<Triangle>(3)), Error);
+}
+
 TEST_F(HybridTest, BadOptionsAreErrors) {
   const Scene scene = small_scene();
   HybridOptions o = small_options();

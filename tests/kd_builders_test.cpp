@@ -20,6 +20,7 @@
 #include "splitray/accel/kd/golden_events.hpp"
 #include "splitray/accel/kd/golden_search.hpp"
 #include "splitray/accel/kd/kd_accel.hpp"
+#include "splitray/accel/kd/kd_emit.hpp"
 #include "splitray/accel/kd/kd_sah.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/core/random.hpp"
@@ -320,6 +321,109 @@ TEST(GoldenEvents, SplitHandsEachChildSortedConsistentLists) {
     for (const Aabb& b : below.bounds()) EXPECT_LE(b.hi.y, position);
     for (const Aabb& b : above.bounds()) EXPECT_GE(b.lo.y, position);
   }
+}
+
+// Predicted rebuilds search a bracket from lists holding only its events, with the
+// primitives wholly below / above it counted apart: the counts and costs equal the full lists'.
+TEST(GoldenSearch, BracketListsCountAsTheFullLists) {
+  const KdSplitCost cost{BuildConfig{}};
+  for (std::uint64_t seed = 1; seed <= 20; ++seed) {
+    const Intervals s = random_intervals(300, 2.0f, seed);
+    const float lo = 3.0f + 0.1f * static_cast<float>(seed % 7), hi = lo + 1.5f;
+    Intervals inside;
+    std::size_t before = 0, after = 0;
+    for (const auto& [a, b] : s.spans) {
+      if (a == b) {
+        if (a < lo) ++before;
+        else if (a > hi) ++after;
+        else inside.planes.push_back(a);
+        continue;
+      }
+      if (a < lo) ++before;
+      else if (a <= hi) inside.starts.push_back(a);
+      if (b > hi) ++after;
+      else if (b >= lo) inside.ends.push_back(b);
+    }
+    std::sort(inside.starts.begin(), inside.starts.end());
+    std::sort(inside.ends.begin(), inside.ends.end());
+    std::sort(inside.planes.begin(), inside.planes.end());
+    AxisEvents bracket = inside.events();
+    bracket.below_before = before;
+    bracket.above_after = after;
+    for (int k = 0; k <= 30; ++k) {
+      const float p = lo + (hi - lo) * static_cast<float>(k) / 30;
+      std::uint32_t evals = 0;
+      const SplitCandidate full = evaluate_split(s.events(), kCell, kAxis, cost, p, evals);
+      const SplitCandidate part = evaluate_split(bracket, kCell, kAxis, cost, p, evals);
+      EXPECT_EQ(full.cost, part.cost) << "seed " << seed << " p " << p;
+      EXPECT_EQ(full.n_below, part.n_below);
+      EXPECT_EQ(full.n_above, part.n_above);
+    }
+    const GoldenSearchResult full = exhaustive_search_axis(s.events(), kCell, kAxis, cost, lo, hi);
+    const GoldenSearchResult part = exhaustive_search_axis(bracket, kCell, kAxis, cost, lo, hi);
+    EXPECT_EQ(full.best.cost, part.best.cost) << "seed " << seed;
+    EXPECT_EQ(full.best.position, part.best.position) << "seed " << seed;
+  }
+}
+
+// Lists made on the spot from a node's PrimRefs equal those the root builds from triangles.
+TEST(GoldenEvents, ListsFromPrimRefsEqualTheRoots) {
+  const std::vector<Triangle> tris = horse();
+  Aabb cell;
+  for (const Triangle& t : tris) cell.extend(t.bounds());
+  const GoldenPrims root = make_golden_prims(tris, cell, false);
+  std::vector<PrimRef> refs;
+  for (std::size_t i = 0; i < root.size(); ++i) refs.push_back({root.bounds()[i], root.ids()[i]});
+  BumpArena arena;
+  const GoldenPrims copy = make_golden_prims(refs, &arena);
+  ASSERT_EQ(copy.size(), root.size());
+  for (int axis = 0; axis < 3; ++axis)
+    for (int kind = 0; kind < 3; ++kind) {
+      const EventSpan& a = root.events(axis, kind);
+      const EventSpan& b = copy.events(axis, kind);
+      ASSERT_EQ(a.size, b.size);
+      EXPECT_TRUE(std::equal(a.pos, a.pos + a.size, b.pos)) << axis << " " << kind;
+      EXPECT_TRUE(std::equal(a.prim, a.prim + a.size, b.prim)) << axis << " " << kind;
+    }
+}
+
+bool same_tree(const KdTree& a, const KdTree& b);  // below
+
+// Chunks of nodes assembled under a parallel top lay out the tree as flatten_kd does.
+TEST(KdEmit, AssembledChunksEqualFlattenedTree) {
+  // The same tree twice: x < 1 ? (leaf {0, 1}) : (y < 2 ? leaf {2} : (z < 3 ? leaf {} : leaf {3, 4})).
+  const auto leaf = [](std::vector<std::uint32_t> ids) {
+    auto n = std::make_unique<KdBuildNode>();
+    n->prims = std::move(ids);
+    return n;
+  };
+  const auto interior = [](int axis, float split, std::unique_ptr<KdBuildNode> b,
+                           std::unique_ptr<KdBuildNode> a) {
+    auto n = std::make_unique<KdBuildNode>();
+    n->axis = axis, n->split = split, n->below = std::move(b), n->above = std::move(a);
+    return n;
+  };
+  const auto root = interior(0, 1, leaf({0, 1}),
+                             interior(1, 2, leaf({2}), interior(2, 3, leaf({}), leaf({3, 4}))));
+  const Aabb box{{0, 0, 0}, {4, 4, 4}};
+  const KdTree flat = flatten_kd(*root, box);
+
+  KdPartial top;
+  top.axis = 0, top.split = 1;
+  top.below = std::make_unique<KdPartial>();
+  top.below->chunk.add_leaf(std::vector<std::uint32_t>{0, 1});
+  top.above = std::make_unique<KdPartial>();
+  KdChunk& c = top.above->chunk;  // a sequential subtree
+  const std::size_t i = c.open_interior();
+  c.add_leaf(std::vector<std::uint32_t>{2});
+  c.set_interior(i, 1, 2);
+  const std::size_t j = c.open_interior();
+  c.add_leaf(std::vector<std::uint32_t>{});
+  c.set_interior(j, 2, 3);
+  c.add_leaf(std::vector<std::uint32_t>{3, 4});
+  const KdTree assembled = assemble_kd(top, box);
+  EXPECT_TRUE(same_tree(flat, assembled));
+  EXPECT_EQ(assembled.nodes.size(), 7u);
 }
 
 // ---- The builders through make_accel ------------------------------------------------------

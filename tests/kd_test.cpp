@@ -38,10 +38,12 @@ std::size_t rays_per_mesh() {
   return kSanitized ? 5000 : 100000;
 }
 
-std::unique_ptr<Accel> build_kd(std::span<const Triangle> triangles, int threads = 0) {
+std::unique_ptr<Accel> build_kd(std::span<const Triangle> triangles, int threads = 0,
+                                float intersection_cost = BuildConfig{}.intersection_cost) {
   BuildConfig config;
   config.builder = "sah";
   config.threads = threads;
+  config.intersection_cost = intersection_cost;
   return make_kd(triangles, config);
 }
 
@@ -63,6 +65,32 @@ class RayMaker {
     std::vector<Ray> rays;
     rays.reserve(count);
     for (std::size_t i = 0; i < count; ++i) rays.push_back(make_one(i % 9));
+    return rays;
+  }
+
+  // Groups of 8 rays from one origin toward points close together (an exact edge midpoint or
+  // vertex and points around it), as neighbouring pixels send them: the batched call traces
+  // them as packets. Some groups lie in a coordinate plane or have a clipped interval.
+  std::vector<Ray> make_packets(std::size_t groups) {
+    std::vector<Ray> rays;
+    for (std::size_t g = 0; g < groups; ++g) {
+      Vec3 org = uniform() < 0.5f ? outside() : in_box();
+      const Vec3 target = uniform() < 0.5f ? edge_point() : vertex();
+      const float spread = scale_ * 0.01f * uniform();
+      const int flat = uniform() < 0.2f ? static_cast<int>(index(3)) : -1;
+      if (flat >= 0) org[flat] = target[flat];
+      const bool clipped = uniform() < 0.2f;
+      const float tmin = 0.5f * uniform(), tmax = 0.5f + uniform();
+      for (int l = 0; l < 8; ++l) {
+        Ray ray;
+        ray.org = org;
+        const Vec3 jitter{uniform() - 0.5f, uniform() - 0.5f, uniform() - 0.5f};
+        ray.dir = (l < 2 ? target : target + jitter * spread) - org;
+        if (flat >= 0) ray.dir[flat] = 0.0f;
+        if (clipped) ray.tmin = tmin, ray.tmax = tmax;
+        rays.push_back(ray);
+      }
+    }
     return rays;
   }
 
@@ -181,12 +209,15 @@ bool same_hit(const Hit& a, const Hit& b) {
 }
 
 // Closest and any hits of kd (sah) equal brute's on `count` rays.
-void expect_brute_hits(const Mesh& mesh, std::uint64_t seed, std::size_t count = rays_per_mesh()) {
+void expect_brute_hits(const Mesh& mesh, std::uint64_t seed, std::size_t count = rays_per_mesh(),
+                       float intersection_cost = BuildConfig{}.intersection_cost) {
   const std::vector<Triangle> triangles = mesh.triangles();
-  const auto kd = build_kd(triangles);
+  const auto kd = build_kd(triangles, 0, intersection_cost);
   const auto brute = make_brute(triangles, {});
   RayMaker maker(mesh, seed);
-  const std::vector<Ray> rays = maker.make(count);
+  std::vector<Ray> rays = maker.make_packets(count / 16);  // half the rays in packets
+  const std::vector<Ray> single = maker.make(count - rays.size());
+  rays.insert(rays.end(), single.begin(), single.end());
   std::vector<Hit> expected(rays.size()), got(rays.size());
   std::vector<std::uint8_t> occluded(rays.size());
   brute->intersect(rays, expected);
@@ -280,6 +311,29 @@ TEST(KdAccel, NamesBuildersAndRejectsUnknownOnes) {
   const std::vector<Triangle> bad{{{0, 0, 0}, {NAN, 0, 0}, {0, 1, 0}}};
   EXPECT_THROW(make_kd(bad, BuildConfig{}), Error);
   EXPECT_EQ(make_kd(one, BuildConfig{})->stats().builder, "sah");
+}
+
+// A tree whose leaves share a reference range and skip references (the traversal's SIMD rows
+// need tiled ranges, so KdAccel re-lays them out) still answers like brute.
+TEST(KdAccel, AcceptsLeavesThatShareOrSkipReferences) {
+  const Mesh mesh = load_mesh(test::vendored_file("horse/horse.obj.gz"));
+  const std::vector<Triangle> triangles = mesh.triangles();
+  KdTree tree;
+  tree.bounds = mesh.bounds();
+  const std::uint32_t n = static_cast<std::uint32_t>(triangles.size());
+  tree.prim_ids.push_back(0);  // skipped by every leaf
+  for (std::uint32_t i = 0; i < n; ++i) tree.prim_ids.push_back(i);
+  const float split = tree.bounds.center().x;
+  tree.nodes = {KdNode::interior(0, split, 2), KdNode::leaf(1, n), KdNode::leaf(1, n)};
+  const KdAccel kd(tree, triangles, BuildConfig{}, 0, Timer{});
+  EXPECT_EQ(kd.tree().prim_ids.size(), 2u * n);
+  const auto brute = make_brute(triangles, {});
+  RayMaker maker(mesh, 6);
+  const std::vector<Ray> rays = maker.make(2000);
+  std::vector<Hit> got(rays.size());
+  kd.intersect(rays, got);
+  for (std::size_t i = 0; i < rays.size(); ++i)
+    EXPECT_TRUE(same_hit(got[i], brute->intersect(rays[i]))) << describe(rays[i]);
 }
 
 TEST(KdAccel, HandlesDegenerateRaysLikeBrute) {
@@ -479,6 +533,15 @@ TEST(KdSahBuilder, EqualsAnExhaustiveSearchAtEveryNode) {
 
 TEST(KdAccel, MatchesBruteOnHorse) {
   expect_brute_hits(load_mesh(test::vendored_file("horse/horse.obj.gz")), 1);
+}
+
+// A cheap intersection cost makes leaves of 10 to 40 triangles: several SIMD groups per leaf,
+// partly filled ones, and wide nodes whose cells hold big leaves.
+TEST(KdAccel, MatchesBruteWithLargeLeaves) {
+  const Mesh mesh = load_mesh(test::vendored_file("horse/horse.obj.gz"));
+  const auto kd = build_kd(mesh.triangles(), 0, 1.5f);
+  EXPECT_GT(kd->stats().mean_leaf_prims, 10.0);
+  expect_brute_hits(mesh, 5, rays_per_mesh() / 2, 1.5f);
 }
 
 TEST(KdAccel, MatchesBruteOnCornellBox) {

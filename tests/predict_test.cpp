@@ -103,5 +103,45 @@ TEST(SplitPredictor, PathsAndPredictions) {
   EXPECT_THROW(parse_predictor_kind("kalmann"), Error);
 }
 
+// Many nodes (the index grows past its first size), nodes dropping out and coming back:
+// every live node predicts from its own history, a node unseen for a frame starts afresh.
+TEST(SplitPredictor, ManyNodesAreTrackedAndForgotten) {
+  PredictorConfig config;
+  config.kind = PredictorKind::kalman;
+  SplitPredictor p(config);
+  const auto frame = [&](std::uint64_t first, std::uint64_t count, double shift) {
+    std::vector<SplitObservation> obs;
+    for (std::uint64_t path = first; path < first + count; ++path) {
+      SplitObservation o;
+      o.path = path;
+      o.depth = 3;
+      o.axis = static_cast<int>(path % 3);
+      o.fraction = 0.3 + 0.0001 * static_cast<double>(path % 1000) + shift;
+      o.axis_margin = 0.5;
+      obs.push_back(o);
+    }
+    p.update(obs);
+  };
+  for (int f = 0; f < 5; ++f) frame(8, 5000, 0.01 * f);
+  EXPECT_EQ(p.tracked(), 5000u);
+  for (const std::uint64_t path : {8ull, 999ull, 5007ull}) {
+    const auto pred = p.predict(path, 3);
+    ASSERT_TRUE(pred) << path;
+    EXPECT_EQ(pred->axis, static_cast<int>(path % 3));
+    // Constant velocity 0.01 per frame: the next is about 0.05 past the first frame's.
+    EXPECT_NEAR(pred->fraction, 0.3 + 0.0001 * static_cast<double>(path % 1000) + 0.05, 0.01);
+  }
+  EXPECT_FALSE(p.predict(5008, 3));
+  frame(8, 2500, 0.05);  // half the nodes vanish
+  EXPECT_EQ(p.tracked(), 2500u);
+  EXPECT_TRUE(p.predict(100, 3));
+  EXPECT_FALSE(p.predict(4000, 3));
+  frame(8, 5000, 0.06);  // they come back: their filters restart at this frame's split
+  const auto fresh = p.predict(4000, 3);
+  ASSERT_TRUE(fresh);
+  EXPECT_NEAR(fresh->fraction, 0.3 + 0.0001 * 0 + 0.06, 1e-9);
+  EXPECT_EQ(p.tracked(), 5000u);
+}
+
 }  // namespace
 }  // namespace splitray

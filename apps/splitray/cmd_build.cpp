@@ -47,7 +47,9 @@ void add_build_command(CLI::App& app) {
   sub->add_flag("--json", command->json,
                 "Print one JSON object: prims, build_ms, sah_cost (null if none), nodes, leaves, "
                 "empty_leaves, max_depth, mean_leaf_depth, mean_leaf_prims, prim_refs, bytes, "
-                "cost_evals, accel, builder, mesh, load_ms, threads");
+                "cost_evals, accel, builder, mesh, load_ms, threads; with --builder neural also "
+                "inference_ms and top_depth (sah_cost is computed from the finished tree the same "
+                "way for every builder)");
   sub->callback([command] { run(*command); });
 }
 

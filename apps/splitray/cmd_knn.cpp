@@ -88,6 +88,10 @@ void run(const KnnCommand& command) {
       object["leaves"] = stats.leaves;
       object["max_depth"] = stats.max_depth;
       object["bytes"] = stats.bytes;
+      if (stats.inference_ms) {  // --builder neural
+        object["inference_ms"] = *stats.inference_ms;
+        object["top_depth"] = stats.top_depth;
+      }
     }
     print_json(object);
     return;
@@ -129,10 +133,19 @@ void add_knn_command(CLI::App& app) {
                   "Radius search instead: every point within this distance (<=), sorted");
   sub->add_option("--samples", command->samples, "Points sampled from a mesh's surface")
       ->check(CLI::PositiveNumber);
-  const std::vector<std::string> names = neighbor_index_names();
+  std::vector<std::string> names = neighbor_index_names();
+  names.push_back("neural");
   sub->add_option("--builder", command->index.builder,
-                  "vvh, sah, median (ours), brute (oracle), nanoflann or flann (yardsticks)")
+                  "vvh, sah, median (ours), neural (paper 003: inferred top + --expand), brute "
+                  "(oracle), nanoflann or flann (yardsticks)")
       ->check(CLI::IsMember(names));
+  sub->add_option("--model", command->index.model,
+                  "--builder neural: model file (default: models/vvh.bin of the source tree, "
+                  "$SPLITRAY_MODEL_DIR or share/splitray/models)");
+  sub->add_option("--expand", command->index.expand,
+                  "--builder neural: builder of the inferred top's leaf cells (vvh, sah, median; "
+                  "default vvh)")
+      ->check(CLI::IsMember({"vvh", "sah", "median"}));
   sub->add_option("--leaf-size", command->index.leaf_size, "Points per leaf (all trees)")
       ->check(CLI::Range(1, 1 << 20));
   sub->add_option("--vvh-radius", command->index.radius,
@@ -143,7 +156,8 @@ void add_knn_command(CLI::App& app) {
                 "Print one JSON object: points, queries, k (null for --radius), build_ms, ms, "
                 "queries_per_s, neighbor_checksum, dist_sum, mean_dist, builder, radius (with "
                 "--radius), neighbors, input, sampled, seed, leaf_size, threads, load_ms, and for "
-                "our trees vvh_radius, vvh_cost, nodes, leaves, max_depth, bytes");
+                "our trees vvh_radius, vvh_cost, nodes, leaves, max_depth, bytes (and inference_ms, "
+                "top_depth for --builder neural)");
   sub->callback([command] { run(*command); });
 }
 

@@ -109,6 +109,8 @@ void run(const TraceCommand& command) {
         {"rays_ms", rays_ms},
     };
     if (camera) object["camera"] = command.camera;
+    if (stats.inference_ms) object["inference_ms"] = *stats.inference_ms;  // --builder neural
+    if (stats.top_depth) object["top_depth"] = *stats.top_depth;
     print_json(object);
     return;
   }

@@ -11,5 +11,7 @@ void add_trace_command(CLI::App& app);
 void add_bench_command(CLI::App& app);
 void add_knn_command(CLI::App& app);
 void add_animate_command(CLI::App& app);
+void add_view_command(CLI::App& app);
+void add_train_command(CLI::App& app);
 
 }  // namespace splitray::app

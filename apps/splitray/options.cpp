@@ -32,6 +32,7 @@ std::string builders_help() {
   for (const auto& accel : accel_names()) {
     auto builders = builder_names(accel);
     if (!builders.empty()) builders.front() += " (default)";
+    if (has_neural_builder(accel)) builders.push_back("neural");
     parts.push_back(accel + ": " + join(builders, ", "));
   }
   return join(parts, "; ");
@@ -113,6 +114,14 @@ void add_accel_options(CLI::App& command, AccelOptions& options) {
   command.add_option("--bins", options.build.bins, "Bins per axis of binned builders")
       ->check(CLI::Range(2, 1 << 16))
       ->group(group);
+  command.add_option("--model", options.build.model,
+                     "--builder neural: model file (default: models/sah.bin of the source tree, "
+                     "$SPLITRAY_MODEL_DIR or share/splitray/models)")
+      ->group(group);
+  command.add_option("--expand", options.build.expand,
+                     "--builder neural: builder of the inferred top's leaf cells (kd: sah, golden, "
+                     "binned; bvh: binned, sbvh, embree; default: the structure's default builder)")
+      ->group(group);
 }
 
 CameraSpec parse_camera(const std::string& text) {
@@ -162,8 +171,18 @@ Geometry load_geometry(const std::string& path) {
   return geometry;
 }
 
+namespace {
+
+// --builder neural only: the greedy inference time and the inferred top's depth.
+void add_neural(nlohmann::ordered_json& object, const AccelStats& stats) {
+  if (stats.inference_ms) object["inference_ms"] = *stats.inference_ms;
+  if (stats.top_depth) object["top_depth"] = *stats.top_depth;
+}
+
+}  // namespace
+
 nlohmann::ordered_json stats_json(const AccelStats& stats) {
-  return {
+  nlohmann::ordered_json object = {
       {"accel", stats.accel},
       {"builder", stats.builder},
       {"prims", stats.prims},
@@ -179,13 +198,15 @@ nlohmann::ordered_json stats_json(const AccelStats& stats) {
       {"bytes", stats.bytes},
       {"cost_evals", stats.cost_evals},
   };
+  add_neural(object, stats);
+  return object;
 }
 
 std::vector<std::pair<std::string, std::string>> stats_rows(const AccelStats& stats) {
   const double evals_per_node =
       stats.nodes > stats.leaves ? static_cast<double>(stats.cost_evals) / (stats.nodes - stats.leaves)
                                  : 0.0;
-  return {
+  std::vector<std::pair<std::string, std::string>> rows = {
       {"accel", stats.accel},
       {"builder", stats.builder},
       {"prims", std::to_string(stats.prims)},
@@ -201,6 +222,9 @@ std::vector<std::pair<std::string, std::string>> stats_rows(const AccelStats& st
       {"bytes", fmt::format("{} ({:.2f} MiB)", stats.bytes, stats.bytes / (1024.0 * 1024.0))},
       {"cost_evals", fmt::format("{} ({:.1f} per interior node)", stats.cost_evals, evals_per_node)},
   };
+  if (stats.inference_ms) rows.emplace_back("inference_ms", fixed(*stats.inference_ms, 3));
+  if (stats.top_depth) rows.emplace_back("top_depth", std::to_string(*stats.top_depth));
+  return rows;
 }
 
 void print_json(const nlohmann::ordered_json& object) { std::cout << object.dump(2) << std::endl; }

@@ -23,6 +23,10 @@ struct BuildConfig {
   int max_leaf_prims = 1;        // a node with this many or fewer primitives is never split
   int bins = 64;                 // binned builders
   int threads = 0;               // 0 = all cores; the built structure never depends on it
+  // --builder neural (paper 003): the model file (empty = the shipped default for the cost)
+  // and the builder that expands the inferred top's leaves (empty = the structure's default).
+  std::string model;
+  std::string expand;
 };
 
 struct AccelStats {
@@ -40,6 +44,8 @@ struct AccelStats {
   std::size_t bytes = 0;
   std::optional<double> sah_cost;  // from sah_cost.hpp, comparable across structures
   std::uint64_t cost_evals = 0;    // SAH cost evaluations made while building
+  std::optional<double> inference_ms;  // --builder neural: the network's greedy top inference
+  std::optional<int> top_depth;        // --builder neural: levels of the inferred top
 };
 
 class Accel {
@@ -73,5 +79,7 @@ std::unique_ptr<Accel> make_accel(const std::string& name, std::span<const Trian
 // Names make_accel accepts, and the builders of each (first = default).
 std::vector<std::string> accel_names();
 std::vector<std::string> builder_names(const std::string& accel);
+// Whether make_accel(accel) also takes builder "neural" (not listed by builder_names).
+bool has_neural_builder(const std::string& accel);
 
 }  // namespace splitray

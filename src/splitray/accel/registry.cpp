@@ -7,6 +7,7 @@
 #include "splitray/accel/bvh/bvh_accel.hpp"
 #include "splitray/accel/embree/embree_accel.hpp"
 #include "splitray/accel/kd/kd_accel.hpp"
+#include "splitray/accel/neural/neural_accel.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/core/parallel.hpp"
 
@@ -17,15 +18,24 @@ namespace {
 struct Entry {
   std::vector<std::string> builders;  // first = default
   std::function<std::unique_ptr<Accel>(std::span<const Triangle>, const BuildConfig&)> make;
+  // Takes --builder neural too (paper 003). Kept out of `builders`, which benchmarks and
+  // tests iterate: the neural builder needs a model file that may be absent.
+  bool neural = false;
 };
+
+using MakeFn = std::unique_ptr<Accel> (*)(std::span<const Triangle>, const BuildConfig&);
+template <MakeFn kMake, MakeFn kMakeNeural>
+std::unique_ptr<Accel> make_or_neural(std::span<const Triangle> triangles, const BuildConfig& config) {
+  return config.builder == "neural" ? kMakeNeural(triangles, config) : kMake(triangles, config);
+}
 
 const std::map<std::string, Entry>& registry() {
   static const std::map<std::string, Entry> entries = {
       {"brute", {{"none"}, make_brute}},
-      {"kd", {kd_builder_names(), make_kd}},
+      {"kd", {kd_builder_names(), make_or_neural<make_kd, make_neural_kd>, true}},
       {"embree", {{"medium", "low", "high"}, make_embree}},
       {"bih", {{"global", "median", "middle", "sah"}, make_bih}},
-      {"bvh", {{"binned", "sbvh"}, make_bvh}},
+      {"bvh", {{"binned", "sbvh"}, make_or_neural<make_bvh, make_neural_bvh>, true}},
   };
   return entries;
 }
@@ -50,16 +60,22 @@ std::vector<std::string> builder_names(const std::string& accel) {
   return it->second.builders;
 }
 
+bool has_neural_builder(const std::string& accel) {
+  const auto it = registry().find(accel);
+  return it != registry().end() && it->second.neural;
+}
+
 std::unique_ptr<Accel> make_accel(const std::string& name, std::span<const Triangle> triangles,
                                   const BuildConfig& config) {
   const std::vector<std::string> builders = builder_names(name);
   BuildConfig resolved = config;
   if (resolved.builder.empty()) resolved.builder = builders.front();
-  bool known = false;
+  bool known = resolved.builder == "neural" && has_neural_builder(name);
   for (const auto& b : builders) known = known || b == resolved.builder;
   if (!known)
     throw Error("--builder", "'" + resolved.builder + "' is not a builder of --accel " + name +
-                                 " (known: " + join(builders) + ")");
+                                 " (known: " + join(builders) +
+                                 (has_neural_builder(name) ? ", neural" : "") + ")");
   if (triangles.empty()) throw Error("build", "no triangles to build on");
   ThreadLimit limit(resolved.threads);
   return registry().at(name).make(triangles, resolved);

@@ -1,4 +1,5 @@
 #include "splitray/query/point_build.hpp"
+#include "splitray/query/neural_point_build.hpp"
 
 #include <tbb/parallel_invoke.h>
 
@@ -347,6 +348,12 @@ class Builder {
 
 PointBuildOutput build_point_tree(std::span<const Vec3> points, const Aabb& bounds,
                                   const PointTreeConfig& config, float radius) {
+  if (config.builder == "neural") {  // paper 003: an inferred top, expanded by config.expand
+    NeuralPointBuild neural = build_neural_point_tree(points, bounds, config, radius);
+    neural.tree.inference_ms = neural.top.inference_ms;
+    neural.tree.top_depth = neural.top.depth;
+    return std::move(neural.tree);
+  }
   Builder builder(points, config, radius);
   builder.prepare_permutation();
   PointBuildOutput out;

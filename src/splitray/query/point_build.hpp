@@ -1,6 +1,7 @@
 #pragma once
 // The point kd-tree builder shared by the vvh, sah and median split choosers (internal).
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -11,6 +12,8 @@ namespace splitray {
 struct PointBuildOutput {
   std::vector<PointNode> nodes;  // depth first; node 0 is the root
   std::vector<std::uint32_t> permutation;
+  std::optional<double> inference_ms;  // builder neural: the greedy top inference
+  int top_depth = 0;                   // builder neural: levels of the inferred top
 };
 
 // `bounds` is the points' bounding box (the root cell); `radius` the resolved VVH expansion.

@@ -138,7 +138,7 @@ std::vector<std::uint32_t> coherent_order(std::span<const Vec3> queries) {
   return order;
 }
 
-std::vector<std::string> PointTree::builder_names() { return {"vvh", "sah", "median"}; }
+std::vector<std::string> PointTree::builder_names() { return {"vvh", "sah", "median", "neural"}; }
 
 PointTree::PointTree(std::span<const Vec3> points, const PointTreeConfig& config)
     : points_(points) {
@@ -157,6 +157,8 @@ PointTree::PointTree(std::span<const Vec3> points, const PointTreeConfig& config
   }
   PointBuildOutput built = build_point_tree(points, bounds_, config, radius);
   nodes_ = std::move(built.nodes);
+  inference_ms_ = built.inference_ms;
+  top_depth_ = built.top_depth;
   permutation_ = std::move(built.permutation);
 
   config_ = config;
@@ -171,6 +173,8 @@ PointTreeStats PointTree::stats() const {
   stats.nodes = nodes_.size();
   stats.radius = radius_;
   stats.build_ms = build_ms_;
+  stats.inference_ms = inference_ms_;
+  stats.top_depth = top_depth_;
   stats.bytes = nodes_.size() * sizeof(PointNode) + permutation_.size() * sizeof(std::uint32_t);
   std::vector<std::pair<std::uint32_t, int>> stack{{0u, 0}};
   double depth_sum = 0;

@@ -10,6 +10,7 @@
 //   median — the median of the longest axis (balanced).
 // The tree depends only on the points and the config, never on the thread count.
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -29,6 +30,10 @@ struct PointTreeConfig {
   float radius = 0;
   float traversal_cost = 1.2f;  // c_t of paper 003 §6.3
   float point_cost = 1.0f;      // c_i
+  // builder "neural" (paper 003): the model file (empty = the shipped models/vvh.bin) and the
+  // builder that expands the inferred top's leaf cells (empty = vvh).
+  std::string model;
+  std::string expand;
 };
 
 // Interior: the points below have coordinate[axis] <= below_max < above_min <= the points
@@ -58,6 +63,8 @@ struct PointTreeStats {
   double build_ms = 0;
   float radius = 0;     // the VVH/SAH expansion used
   double vvh_cost = 0;  // paper 003 Eq. 4 + 6 evaluated on the finished tree (any builder)
+  std::optional<double> inference_ms;  // builder neural: the greedy top inference
+  int top_depth = 0;                   // builder neural: levels of the inferred top
 };
 
 class PointTree {
@@ -105,6 +112,8 @@ class PointTree {
   PointTreeConfig config_;
   float radius_ = 0;
   double build_ms_ = 0;
+  std::optional<double> inference_ms_;  // builder neural
+  int top_depth_ = 0;
 };
 
 // Spatially coherent processing order of queries (Morton order in their bounding box);

@@ -1,5 +1,6 @@
 #include "splitray/render_gl/cpu_pass.hpp"
 
+#include <cmath>
 #include <algorithm>
 #include <optional>
 
@@ -50,29 +51,62 @@ CpuPass::Surface CpuPass::surface(const Ray& ray, std::uint32_t prim, float t, f
   return s;
 }
 
-Vec3 CpuPass::trace(const Ray& ray, int depth, std::uint64_t& rays) const {
-  ++rays;
-  const Hit hit = accel_.intersect(ray);
-  if (!hit.found()) return scene_.background;
-  return shade(ray, surface(ray, hit.prim, hit.t, hit.u, hit.v), depth, rays);
+int LightMap::visibility(const Vec3& p, const Vec3& ng) const {
+  const Vec3 q = p + ng * normal_offset;
+  int face = 0;
+  float reference = 0;
+  if (cube) {
+    const Vec3 d = q - position;
+    const Vec3 a{std::abs(d.x), std::abs(d.y), std::abs(d.z)};
+    const int axis = a.x >= a.y && a.x >= a.z ? 0 : (a.y >= a.z ? 1 : 2);
+    face = 2 * axis + (d[axis] < 0 ? 1 : 0);
+    reference = length(d) / range;
+  }
+  const glm::vec4 c = matrices[face] * glm::vec4(q.x, q.y, q.z, 1.0f);
+  if (!(c.w > 0)) return -1;
+  const float sx = c.x / c.w * 0.5f + 0.5f, sy = c.y / c.w * 0.5f + 0.5f;
+  if (!cube) reference = c.z / c.w * 0.5f + 0.5f;
+  if (!(reference >= 0 && reference <= 1)) return -1;
+  const float fx = sx * static_cast<float>(size), fy = sy * static_cast<float>(size);
+  if (!(fx >= 1 && fy >= 1 && fx < static_cast<float>(size - 1) && fy < static_cast<float>(size - 1)))
+    return -1;
+  const int tx = static_cast<int>(fx), ty = static_cast<int>(fy);
+  int lit = 0;
+  for (int dy = -1; dy <= 1; ++dy)
+    for (int dx = -1; dx <= 1; ++dx) {
+      const std::size_t i = (static_cast<std::size_t>(face) * size + (ty + dy)) * size + (tx + dx);
+      if (flag[i]) return -1;
+      lit += reference <= depth[i];
+    }
+  return lit == 9 ? 1 : (lit == 0 ? 0 : -1);
 }
 
-Vec3 CpuPass::shade(const Ray& ray, const Surface& s, int depth, std::uint64_t& rays) const {
+Vec3 CpuPass::trace(const Ray& ray, int depth, Trace& t) const {
+  ++t.rays;
+  const Hit hit = accel_.intersect(ray);
+  if (!hit.found()) return scene_.background;
+  return shade(ray, surface(ray, hit.prim, hit.t, hit.u, hit.v), depth, t);
+}
+
+Vec3 CpuPass::shade(const Ray& ray, const Surface& s, int depth, Trace& t) const {
   const Material& m = *s.m;
   const float share = diffuse_share(m);
   Vec3 color = scene_.ambient * m.diffuse * share;
-  for (const Light& light : scene_.lights) {
+  for (std::size_t i = 0; i < scene_.lights.size(); ++i) {
+    const Light& light = scene_.lights[i];
     const LightSample ls = sample_light(light, s.p);
     if (dot(s.ng, ls.to_light) <= 0) continue;
     const Vec3 c = phong(m, share, s.ns, -s.d, ls);
     if (c == Vec3{0}) continue;
-    color += c * visibility(s.p + s.ng * eps_, light, rays);
+    const int answer = t.maps && i < t.maps->size() ? (*t.maps)[i].visibility(s.p, s.ng) : -1;
+    if (answer >= 0) ++t.map_answers;
+    color += c * (answer >= 0 ? static_cast<float>(answer) : visibility(s.p + s.ng * eps_, light, t.rays));
   }
-  return color + secondary(ray, s, depth, rays);
+  return color + secondary(ray, s, depth, t);
 }
 
 // Reflection and refraction of a surface hit at `depth` (whitted.cpp's rules).
-Vec3 CpuPass::secondary(const Ray& ray, const Surface& s, int depth, std::uint64_t& rays) const {
+Vec3 CpuPass::secondary(const Ray& ray, const Surface& s, int depth, Trace& t) const {
   (void)ray;
   if (depth >= max_depth_) return Vec3{0};
   const Material& m = *s.m;
@@ -96,9 +130,9 @@ Vec3 CpuPass::secondary(const Ray& ray, const Surface& s, int depth, std::uint64
   if (kr > 0) {
     Vec3 r = reflect(s.d, s.n_bounce);
     if (dot(r, s.ng) <= 0) r = reflect(s.d, s.ng);
-    color += trace(Ray{s.p + s.ng * eps_, r}, depth + 1, rays) * kr;
+    color += trace(Ray{s.p + s.ng * eps_, r}, depth + 1, t) * kr;
   }
-  if (kt > 0) color += trace(Ray{s.p - s.ng * eps_, *refracted}, depth + 1, rays) * kt;
+  if (kt > 0) color += trace(Ray{s.p - s.ng * eps_, *refracted}, depth + 1, t) * kt;
   return color;
 }
 
@@ -169,7 +203,8 @@ void CpuPass::run(const CpuPassInput& in, bool secondary_rays, bool refine,
   out.refined = in.mask;
   const int lights = static_cast<int>(std::min<std::size_t>(scene_.lights.size(), 4));
   const std::size_t rows = static_cast<std::size_t>(in.height);
-  std::vector<std::uint64_t> row_rays(rows, 0), row_secondary(rows, 0), row_boundary(rows, 0);
+  std::vector<std::uint64_t> row_rays(rows, 0), row_secondary(rows, 0), row_boundary(rows, 0),
+      row_boundary_rays(rows, 0), row_map_answers(rows, 0);
   parallel_chunks(rows, kRowsPerChunk, [&](std::size_t begin, std::size_t end) {
     for (std::size_t y = begin; y < end; ++y)
       for (int x = 0; x < in.width; ++x) {
@@ -189,6 +224,7 @@ void CpuPass::run(const CpuPassInput& in, bool secondary_rays, bool refine,
         std::uint64_t& rays = row_rays[y];
         if (any_boundary) {
           ++row_boundary[y];
+          const std::uint64_t before = rays;
           for (int l = 0; l < lights; ++l)
             if (in.boundary[i][l]) {
               const LightSample ls = sample_light(scene_.lights[l], s.p);
@@ -196,18 +232,25 @@ void CpuPass::run(const CpuPassInput& in, bool secondary_rays, bool refine,
                                       ? 0.0f
                                       : visibility(s.p + s.ng * eps_, scene_.lights[l], rays);
             }
+          row_boundary_rays[y] += rays - before;
         }
         if (needs_secondary) {
           ++row_secondary[y];
-          const Vec3 c = secondary(ray, s, 0, rays);
+          Trace t;
+          t.maps = in.maps.empty() ? nullptr : &in.maps;
+          const Vec3 c = secondary(ray, s, 0, t);
+          rays += t.rays;
+          row_map_answers[y] += t.map_answers;
           out.color[i] = {c.x, c.y, c.z, 0};
         }
       }
   });
-  out.rays = 0;
+  out.rays = out.boundary_rays = out.map_answers = 0;
   out.secondary_pixels = out.boundary_pixels = 0;
   for (std::size_t y = 0; y < rows; ++y) {
     out.rays += row_rays[y];
+    out.boundary_rays += row_boundary_rays[y];
+    out.map_answers += row_map_answers[y];
     out.secondary_pixels += row_secondary[y];
     out.boundary_pixels += row_boundary[y];
   }

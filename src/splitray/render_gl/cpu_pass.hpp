@@ -5,11 +5,32 @@
 #include <cstdint>
 #include <vector>
 
+#include <glm/glm.hpp>
+
 #include "splitray/accel/accel.hpp"
 #include "splitray/core/image.hpp"
 #include "splitray/core/scene.hpp"
 
 namespace splitray::gl {
+
+// A light's shadow map of pass 1 read back for the CPU, so that the shadow rays of secondary
+// hits are asked only where the map cannot answer: a 3x3 texel neighbourhood that agrees (all
+// lit or all shadowed by opaque casters) answers, anything else (a shadow edge, a transparent
+// caster, a point outside the map) traces the exact ray. The same test as pass 2 (normal
+// offset, depth compare LEQUAL), conservative at edges as pass 3's blur is on screen.
+struct LightMap {
+  bool cube = false;
+  int size = 0;
+  std::array<glm::mat4, 6> matrices{};  // directional: [0]; cube faces in GL order
+  Vec3 position{0};                     // point lights
+  float range = 1, normal_offset = 0;
+  std::vector<float> depth;             // faces x size x size, bottom row first (GL)
+  std::vector<std::uint8_t> flag;       // transparent nearest caster
+
+  // 1 lit, 0 shadowed, -1 ask a ray; `p` on a surface whose geometric normal `ng` faces the
+  // ray that found it.
+  int visibility(const Vec3& p, const Vec3& ng) const;
+};
 
 struct CpuPassInput {
   int width = 0, height = 0;
@@ -17,12 +38,15 @@ struct CpuPassInput {
   std::vector<std::uint32_t> ids;                    // id + 1, top row first
   std::vector<std::array<float, 4>> mask;            // shadow-map visibility per light
   std::vector<std::array<std::uint8_t, 4>> boundary; // 1 = trace an exact shadow ray
+  std::vector<LightMap> maps;  // per light; empty: every secondary shadow ray is traced
 };
 
 struct CpuPassOutput {
   std::vector<std::array<float, 4>> color;     // rgb reflection + refraction, a unused
   std::vector<std::array<float, 4>> refined;   // visibility per light
   std::uint64_t rays = 0;
+  std::uint64_t boundary_rays = 0;  // of `rays`: exact shadow rays of boundary pixels
+  std::uint64_t map_answers = 0;    // secondary shadow rays the shadow maps made unnecessary
   std::size_t secondary_pixels = 0, boundary_pixels = 0;
   double ms = 0;
 };
@@ -41,9 +65,14 @@ class CpuPass {
  private:
   struct Surface;
   Surface surface(const Ray& ray, std::uint32_t prim, float t, float u, float v) const;
-  Vec3 trace(const Ray& ray, int depth, std::uint64_t& rays) const;
-  Vec3 shade(const Ray& ray, const Surface& s, int depth, std::uint64_t& rays) const;
-  Vec3 secondary(const Ray& ray, const Surface& s, int depth, std::uint64_t& rays) const;
+  // What one pixel's secondary rays need: the counters and the frame's shadow maps.
+  struct Trace {
+    std::uint64_t rays = 0, map_answers = 0;
+    const std::vector<LightMap>* maps = nullptr;
+  };
+  Vec3 trace(const Ray& ray, int depth, Trace& t) const;
+  Vec3 shade(const Ray& ray, const Surface& s, int depth, Trace& t) const;
+  Vec3 secondary(const Ray& ray, const Surface& s, int depth, Trace& t) const;
   float visibility(const Vec3& org, const Light& light, std::uint64_t& rays) const;
 
   const Scene& scene_;

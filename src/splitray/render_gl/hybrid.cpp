@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <future>
+#include <optional>
 #include <string>
 
 #include <glm/gtc/type_ptr.hpp>
@@ -39,11 +40,34 @@ struct ShadowMap {
   GLuint depth = 0, flag = 0;
   GLuint fbo[6] = {};
   glm::mat4 matrix{1.0f};  // directional lights
+  std::array<glm::mat4, 6> faces{};  // of this frame: matrix, or the cube's faces
   float range = 1;         // point lights
+  float normal_offset = 0;
+};
+
+// The triangles of one frame on both sides: the CPU's soup, hierarchy and pass, the GPU's
+// vertex buffer. Frames in flight hold their own (animation: frame n-1's CPU pass and
+// composite use frame n-1's geometry while the GPU rasterises frame n's).
+struct Geometry {
+  FlatScene flat;
+  std::unique_ptr<Accel> accel;
+  std::unique_ptr<gl::CpuPass> cpu;
+  Aabb bounds;
+  GLuint vao = 0, vbo = 0;
+  std::size_t vertex_count = 0;
+
+  Geometry() = default;
+  Geometry(const Geometry&) = delete;
+  Geometry& operator=(const Geometry&) = delete;
+  ~Geometry() {  // released on the GL thread only (slots and the renderer live there)
+    glDeleteBuffers(1, &vbo);
+    glDeleteVertexArrays(1, &vao);
+  }
 };
 
 // Everything one frame carries between the GPU passes and the CPU pass (double-buffered).
 struct Slot {
+  std::shared_ptr<Geometry> geometry;
   gl::CpuPassInput input;
   gl::CpuPassOutput output;
   HybridFrame frame;
@@ -65,14 +89,11 @@ void check_options(const HybridOptions& o) {
 struct HybridRenderer::Impl {
   const Scene& scene;
   HybridOptions options;
-  FlatScene flat;
-  std::unique_ptr<Accel> accel;
-  std::unique_ptr<gl::CpuPass> cpu;
-  Aabb bounds;
+  std::shared_ptr<Geometry> geometry;  // of the next frame submitted
   std::size_t lights = 0;
-  std::size_t vertex_count = 0;
+  bool has_secondary = false;  // a material reflects or refracts
 
-  GLuint vao = 0, vbo = 0, materials = 0, empty_vao = 0;
+  GLuint materials = 0, empty_vao = 0;
   Program shadow, shadow_cube, id, blur, composite;
   std::vector<ShadowMap> maps;
   GLuint id_fbo = 0, id_tex = 0, mask_tex = 0, depth_tex = 0;
@@ -81,6 +102,8 @@ struct HybridRenderer::Impl {
   GLuint visibility_tex = 0, cpu_tex = 0;
   GLuint queries[5] = {};
   Slot slots[2];
+  std::size_t submitted = 0;   // frames submitted since the last finish()
+  std::future<void> pending;   // the CPU pass of the last frame submitted (interleaved)
 
   Impl(const Scene& s, const HybridOptions& o) : scene(s), options(o) {
     check_options(o);
@@ -89,10 +112,9 @@ struct HybridRenderer::Impl {
       throw Error("--mode hybrid", "at most " + std::to_string(kMaxHybridLights) +
                                        " lights are supported, the scene has " +
                                        std::to_string(scene.lights.size()));
-    flat = flatten(scene);
-    accel = make_accel(options.accel, flat.triangles, options.build);
-    cpu = std::make_unique<gl::CpuPass>(scene, flat, *accel, options.max_depth);
-    bounds = bounds_of(flat.triangles);
+    FlatScene flat = flatten(scene);
+    for (const Material& m : scene.materials)
+      has_secondary = has_secondary || m.reflectivity > 0 || m.transparency > 0;
     lights = scene.lights.size();
     const char* version = reinterpret_cast<const char*>(glGetString(GL_VERSION));
     GLint major = 0, minor = 0;
@@ -101,7 +123,8 @@ struct HybridRenderer::Impl {
     if (major * 10 + minor < 45)
       throw Error("--mode hybrid", std::string("needs OpenGL 4.5, the context has ") +
                                        (version ? version : "none"));
-    upload_scene();
+    geometry = make_geometry(std::move(flat), nullptr);
+    upload_materials();
     shadow = Program("scene.vert.glsl", "shadow.frag.glsl");
     shadow_cube = Program("scene.vert.glsl", "shadow.frag.glsl", {"shadow_cube.glsl"});
     id = Program("scene.vert.glsl", "id.frag.glsl", {"lights.glsl"});
@@ -125,13 +148,27 @@ struct HybridRenderer::Impl {
       glDeleteTextures(1, &m.flag);
       glDeleteFramebuffers(m.cube ? 6 : 1, m.fbo);
     }
-    glDeleteBuffers(1, &vbo);
+    if (pending.valid()) pending.wait();
     glDeleteBuffers(1, &materials);
-    glDeleteVertexArrays(1, &vao);
     glDeleteVertexArrays(1, &empty_vao);
   }
 
-  void upload_scene() {
+  // The hierarchy (built by `build`, or make_accel from the options) and the vertex buffer of
+  // `flat`.
+  std::shared_ptr<Geometry> make_geometry(
+      FlatScene flat, const std::function<std::unique_ptr<Accel>(std::span<const Triangle>)>& build) {
+    auto g = std::make_shared<Geometry>();
+    g->flat = std::move(flat);
+    g->accel = build ? build(g->flat.triangles)
+                     : make_accel(options.accel, g->flat.triangles, options.build);
+    g->cpu = std::make_unique<gl::CpuPass>(scene, g->flat, *g->accel, options.max_depth);
+    g->bounds = bounds_of(g->flat.triangles);
+    upload_vertices(*g);
+    return g;
+  }
+
+  void upload_vertices(Geometry& g) {
+    const FlatScene& flat = g.flat;
     std::vector<Vertex> vertices(flat.triangles.size() * 3);
     for (std::size_t t = 0; t < flat.triangles.size(); ++t) {
       const Triangle& tri = flat.triangles[t];
@@ -147,12 +184,13 @@ struct HybridRenderer::Impl {
         v.material = flat.material[t];
       }
     }
-    vertex_count = vertices.size();
-    glCreateBuffers(1, &vbo);
-    glNamedBufferStorage(vbo, static_cast<GLsizeiptr>(vertices.size() * sizeof(Vertex)),
+    g.vertex_count = vertices.size();
+    glCreateVertexArrays(1, &g.vao);
+    const GLuint vao = g.vao;
+    glCreateBuffers(1, &g.vbo);
+    glNamedBufferStorage(g.vbo, static_cast<GLsizeiptr>(vertices.size() * sizeof(Vertex)),
                          vertices.data(), 0);
-    glCreateVertexArrays(1, &vao);
-    glVertexArrayVertexBuffer(vao, 0, vbo, 0, sizeof(Vertex));
+    glVertexArrayVertexBuffer(vao, 0, g.vbo, 0, sizeof(Vertex));
     for (GLuint a = 0; a < 3; ++a) {
       glEnableVertexArrayAttrib(vao, a);
       glVertexArrayAttribFormat(vao, a, 3, GL_FLOAT, GL_FALSE, a * 3 * sizeof(float));
@@ -161,6 +199,9 @@ struct HybridRenderer::Impl {
     glEnableVertexArrayAttrib(vao, 3);
     glVertexArrayAttribIFormat(vao, 3, 1, GL_UNSIGNED_INT, offsetof(Vertex, material));
     glVertexArrayAttribBinding(vao, 3, 0);
+  }
+
+  void upload_materials() {
     glCreateVertexArrays(1, &empty_vao);
 
     std::vector<MaterialGpu> mats;
@@ -270,10 +311,10 @@ struct HybridRenderer::Impl {
     glProgramUniform1i(blur.id(), blur.uniform("u_ids"), 1);
   }
 
-  void draw_scene() {
-    glBindVertexArray(vao);
+  void draw_scene(const Geometry& g) {
+    glBindVertexArray(g.vao);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, materials);
-    glDrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(vertex_count));
+    glDrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(g.vertex_count));
   }
 
   double query_ms(int pass) {
@@ -283,7 +324,8 @@ struct HybridRenderer::Impl {
   }
 
   // Pass 1: the shadow maps.
-  void shadow_pass(const Camera& camera) {
+  void shadow_pass(const Camera& camera, const Geometry& g) {
+    const Aabb& bounds = g.bounds;
     const float aspect = static_cast<float>(options.width) / static_cast<float>(options.height);
     const float texel = length(bounds.extent()) / static_cast<float>(options.shadow_map_size);
     glEnable(GL_DEPTH_TEST);
@@ -315,6 +357,7 @@ struct HybridRenderer::Impl {
         glEnable(GL_POLYGON_OFFSET_FILL);
         glPolygonOffset(2.0f, 4.0f);
       }
+      m.faces = matrices;
       for (int f = 0; f < (m.cube ? 6 : 1); ++f) {
         glBindFramebuffer(GL_FRAMEBUFFER, m.fbo[f]);
         const float clear_depth = 1, clear_flag[] = {0, 0, 0, 0};
@@ -322,10 +365,11 @@ struct HybridRenderer::Impl {
         glClearNamedFramebufferfv(m.fbo[f], GL_COLOR, 0, clear_flag);
         glProgramUniformMatrix4fv(program.id(), program.uniform("u_matrix"), 1, GL_FALSE,
                                   glm::value_ptr(matrices[f]));
-        draw_scene();
+        draw_scene(g);
       }
       glDisable(GL_POLYGON_OFFSET_FILL);
       const float offset = (m.cube ? 2.0f : 1.5f) * texel;
+      m.normal_offset = offset;
       glProgramUniform1f(id.id(), id.uniform(("u_normal_offset[" + std::to_string(i) + "]").c_str()), offset);
       glProgramUniform1f(id.id(), id.uniform(("u_light_range[" + std::to_string(i) + "]").c_str()), m.range);
       glProgramUniformMatrix4fv(id.id(), id.uniform(("u_light_matrix[" + std::to_string(i) + "]").c_str()),
@@ -339,16 +383,18 @@ struct HybridRenderer::Impl {
   void gpu_front(const Camera& camera, Slot& slot) {
     const int w = options.width, h = options.height;
     slot.frame = HybridFrame{};
+    slot.geometry = geometry;
+    const Geometry& g = *geometry;
     slot.input.width = w;
     slot.input.height = h;
     slot.input.camera = camera;
 
     glBeginQuery(GL_TIME_ELAPSED, queries[0]);
-    shadow_pass(camera);
+    shadow_pass(camera, g);
     glEndQuery(GL_TIME_ELAPSED);
 
     glBeginQuery(GL_TIME_ELAPSED, queries[1]);
-    const glm::mat4 view_projection = gl::camera_matrix(camera, w, h, bounds);
+    const glm::mat4 view_projection = gl::camera_matrix(camera, w, h, g.bounds);
     glViewport(0, 0, w, h);
     glBindFramebuffer(GL_FRAMEBUFFER, id_fbo);
     const GLuint zero_id[] = {0, 0, 0, 0};
@@ -360,7 +406,7 @@ struct HybridRenderer::Impl {
     glProgramUniformMatrix4fv(id.id(), id.uniform("u_matrix"), 1, GL_FALSE, glm::value_ptr(view_projection));
     glProgramUniform3f(id.id(), id.uniform("u_eye"), camera.eye.x, camera.eye.y, camera.eye.z);
     glEnable(GL_DEPTH_TEST);
-    draw_scene();
+    draw_scene(g);
     glEndQuery(GL_TIME_ELAPSED);
 
     glBeginQuery(GL_TIME_ELAPSED, queries[2]);
@@ -386,8 +432,32 @@ struct HybridRenderer::Impl {
     slot.input.ids = flip(ids, w, h);
     slot.input.mask = flip(mask, w, h);
     slot.input.boundary = flip(boundary, w, h);
+    read_light_maps(slot);
     for (int p = 0; p < 3; ++p) slot.frame.pass_ms[p] = query_ms(p);
     gl::check_error("passes 1-3");
+  }
+
+  // The shadow maps for the CPU's secondary shadow rays, when anything reflects or refracts.
+  void read_light_maps(Slot& slot) {
+    slot.input.maps.resize(0);
+    if (!options.secondary || !options.map_secondary_shadows || !has_secondary) return;
+    slot.input.maps.resize(maps.size());
+    for (std::size_t i = 0; i < maps.size(); ++i) {
+      const ShadowMap& m = maps[i];
+      gl::LightMap& out = slot.input.maps[i];
+      out.cube = m.cube;
+      out.size = m.size;
+      out.matrices = m.faces;
+      out.position = scene.lights[i].position;
+      out.range = m.range;
+      out.normal_offset = m.normal_offset;
+      const std::size_t n = static_cast<std::size_t>(m.size) * m.size * (m.cube ? 6 : 1);
+      out.depth.resize(n);
+      out.flag.resize(n);
+      glGetTextureImage(m.depth, 0, GL_DEPTH_COMPONENT, GL_FLOAT, static_cast<GLsizei>(n * 4),
+                        out.depth.data());
+      glGetTextureImage(m.flag, 0, GL_RED, GL_UNSIGNED_BYTE, static_cast<GLsizei>(n), out.flag.data());
+    }
   }
 
   template <typename T>
@@ -400,7 +470,7 @@ struct HybridRenderer::Impl {
   }
 
   void cpu_pass(Slot& slot) {
-    cpu->run(slot.input, options.secondary, options.refine_shadows, slot.output);
+    slot.geometry->cpu->run(slot.input, options.secondary, options.refine_shadows, slot.output);
   }
 
   // Pass 5 and the read-back of the finished frame.
@@ -422,13 +492,13 @@ struct HybridRenderer::Impl {
     composite.use();
     const Camera& camera = slot.input.camera;
     glProgramUniformMatrix4fv(composite.id(), composite.uniform("u_matrix"), 1, GL_FALSE,
-                              glm::value_ptr(gl::camera_matrix(camera, w, h, bounds)));
+                              glm::value_ptr(gl::camera_matrix(camera, w, h, slot.geometry->bounds)));
     glProgramUniform3f(composite.id(), composite.uniform("u_eye"), camera.eye.x, camera.eye.y, camera.eye.z);
     glBindTextureUnit(0, visibility_tex);
     glBindTextureUnit(1, cpu_tex);
     glEnable(GL_DEPTH_TEST);
     glDepthFunc(GL_LESS);
-    draw_scene();
+    draw_scene(*slot.geometry);
     glEndQuery(GL_TIME_ELAPSED);
 
     std::vector<std::array<float, 4>> pixels(n);
@@ -440,6 +510,8 @@ struct HybridRenderer::Impl {
     f.image = Image(w, h);
     for (std::size_t i = 0; i < n; ++i) f.image.pixels[i] = Vec3{pixels[i][0], pixels[i][1], pixels[i][2]};
     f.cpu_rays = slot.output.rays;
+    f.boundary_rays = slot.output.boundary_rays;
+    f.map_answers = slot.output.map_answers;
     f.secondary_pixels = slot.output.secondary_pixels;
     f.boundary_pixels = slot.output.boundary_pixels;
     f.ids = slot.input.ids;
@@ -453,34 +525,67 @@ HybridRenderer::HybridRenderer(const Scene& scene, const HybridOptions& options)
     : impl_(std::make_unique<Impl>(scene, options)) {}
 HybridRenderer::~HybridRenderer() = default;
 
+std::optional<HybridFrame> HybridRenderer::submit(const Camera& camera) {
+  Impl& r = *impl_;
+  Slot& slot = r.slots[r.submitted % 2];
+  r.gpu_front(camera, slot);
+  ++r.submitted;
+  if (!r.options.interleaved) {
+    r.cpu_pass(slot);
+    r.gpu_back(slot);
+    return std::move(slot.frame);
+  }
+  std::optional<HybridFrame> previous_frame;
+  if (r.pending.valid()) {
+    r.pending.get();
+    Slot& previous = r.slots[r.submitted % 2];  // (submitted - 2) % 2: the frame before
+    r.gpu_back(previous);
+    previous_frame = std::move(previous.frame);
+  }
+  r.pending = std::async(std::launch::async, [&r, &slot] { r.cpu_pass(slot); });
+  return previous_frame;
+}
+
+std::optional<HybridFrame> HybridRenderer::finish() {
+  Impl& r = *impl_;
+  std::optional<HybridFrame> last;
+  if (r.pending.valid()) {
+    r.pending.get();
+    Slot& slot = r.slots[(r.submitted - 1) % 2];
+    r.gpu_back(slot);
+    last = std::move(slot.frame);
+  }
+  r.submitted = 0;
+  return last;
+}
+
 void HybridRenderer::render(std::span<const Camera> cameras,
                             const std::function<void(HybridFrame&&)>& done) {
+  ThreadLimit limit(impl_->options.build.threads);
+  for (const Camera& camera : cameras)
+    if (auto frame = submit(camera)) done(std::move(*frame));
+  if (auto frame = finish()) done(std::move(*frame));
+}
+
+void HybridRenderer::set_triangles(
+    std::vector<Triangle> triangles,
+    const std::function<std::unique_ptr<Accel>(std::span<const Triangle>)>& build) {
   Impl& r = *impl_;
-  ThreadLimit limit(r.options.build.threads);
-  std::future<void> pending;  // the CPU pass of the previous frame
-  for (std::size_t k = 0; k < cameras.size(); ++k) {
-    Slot& slot = r.slots[k % 2];
-    r.gpu_front(cameras[k], slot);
-    if (!r.options.interleaved) {
-      r.cpu_pass(slot);
-      r.gpu_back(slot);
-      done(std::move(slot.frame));
-      continue;
-    }
-    if (k > 0) {
-      pending.get();
-      Slot& previous = r.slots[(k - 1) % 2];
-      r.gpu_back(previous);
-      done(std::move(previous.frame));
-    }
-    pending = std::async(std::launch::async, [&r, &slot] { r.cpu_pass(slot); });
+  const FlatScene& old = r.geometry->flat;
+  if (triangles.size() != old.triangles.size())
+    throw Error("hybrid renderer", "a new frame must keep the triangle count (" +
+                                       std::to_string(old.triangles.size()) + "), got " +
+                                       std::to_string(triangles.size()));
+  FlatScene flat;
+  flat.material = old.material;
+  flat.vertex_normals.resize(triangles.size());
+  for (std::size_t t = 0; t < triangles.size(); ++t) {
+    Vec3 n = normalize(triangles[t].geometric_normal());
+    if (!is_finite(n)) n = Vec3{0, 1, 0};
+    flat.vertex_normals[t] = {n, n, n};
   }
-  if (r.options.interleaved && !cameras.empty()) {
-    pending.get();
-    Slot& last = r.slots[(cameras.size() - 1) % 2];
-    r.gpu_back(last);
-    done(std::move(last.frame));
-  }
+  flat.triangles = std::move(triangles);
+  r.geometry = r.make_geometry(std::move(flat), build);
 }
 
 HybridFrame HybridRenderer::render_one(const Camera& camera) {
@@ -490,7 +595,7 @@ HybridFrame HybridRenderer::render_one(const Camera& camera) {
 }
 
 unsigned HybridRenderer::last_texture() const { return impl_->final_tex; }
-const AccelStats& HybridRenderer::accel_stats() const { return impl_->accel->stats(); }
+const AccelStats& HybridRenderer::accel_stats() const { return impl_->geometry->accel->stats(); }
 std::size_t HybridRenderer::light_count() const { return impl_->lights; }
 HybridOptions& HybridRenderer::options() { return impl_->options; }
 

@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -30,6 +31,9 @@ struct HybridOptions {
   bool lispsm = true;            // false: uniform (orthographic) shadow maps
   bool refine_shadows = true;    // exact shadow rays for boundary pixels
   bool secondary = true;         // reflection and refraction rays on the CPU
+  // The shadow rays of secondary hits answered from the shadow maps where a 3x3 texel
+  // neighbourhood agrees (traced at shadow edges, transparent casters and outside the maps).
+  bool map_secondary_shadows = true;
   bool interleaved = true;       // false: the passes of each frame strictly in sequence
 };
 
@@ -40,6 +44,9 @@ struct HybridFrame {
   Image image;
   std::array<double, 5> pass_ms{};   // GPU passes timed with queries, the CPU pass on the CPU
   std::uint64_t cpu_rays = 0;
+  std::uint64_t boundary_rays = 0;   // of cpu_rays: exact shadow rays of boundary pixels; the
+                                     // rest are secondary rays and their shadow rays
+  std::uint64_t map_answers = 0;     // secondary shadow rays the shadow maps answered instead
   std::size_t secondary_pixels = 0;  // pixels whose material reflects or refracts
   std::size_t boundary_pixels = 0;   // pixels with a shadow boundary for any light
   // Debug buffers (top row first): triangle id + 1 (0 = background), the shadow-map's
@@ -58,6 +65,18 @@ class HybridRenderer {
   // options.interleaved the CPU pass of frame n overlaps the GPU passes of frame n+1.
   void render(std::span<const Camera> cameras, const std::function<void(HybridFrame&&)>& done);
   HybridFrame render_one(const Camera& camera);
+
+  // Streaming use (the viewer): submit the next frame's camera; returns the frame finished
+  // meanwhile (interleaved: the previous one, none for the first; sequential: this one).
+  // finish() returns the frame still in flight. Change options only after finish().
+  std::optional<HybridFrame> submit(const Camera& camera);
+  std::optional<HybridFrame> finish();
+
+  // Animation: frames submitted from now on show `triangles` (same count and order as the
+  // scene's flattened triangles; flat-shaded), traced through the hierarchy `build` makes
+  // from them (null: make_accel of the options). Frames in flight keep their own geometry.
+  void set_triangles(std::vector<Triangle> triangles,
+                     const std::function<std::unique_ptr<Accel>(std::span<const Triangle>)>& build = {});
 
   // The composite of the last frame as a GL texture (RGBA32F), for the viewer.
   unsigned last_texture() const;

@@ -14,6 +14,7 @@
 #include "splitray/accel/kd/binned_arena.hpp"
 #include "splitray/accel/kd/binned_split.hpp"
 #include "splitray/accel/kd/kd_build.hpp"
+#include "splitray/accel/kd/kd_emit.hpp"
 #include "splitray/accel/kd/kd_sah.hpp"
 #include "splitray/core/errors.hpp"
 
@@ -25,11 +26,6 @@ constexpr std::size_t kParallelSubtree = 2048;  // prims from which children bui
 constexpr std::size_t kParallelNode = 32768;    // prims from which a node bins in parallel
 constexpr std::size_t kMinBins = 4;
 
-struct Built {
-  std::unique_ptr<KdBuildNode> node;
-  std::uint64_t evals = 0;
-};
-
 class BinnedBuilder {
  public:
   BinnedBuilder(std::span<const Triangle> triangles, const BuildConfig& config, std::size_t prims)
@@ -40,16 +36,17 @@ class BinnedBuilder {
         max_leaf_(static_cast<std::size_t>(std::max(config.max_leaf_prims, 0))) {}
 
   // A node whose arrays are heap vectors; its children become tasks.
-  Built build_large(std::vector<PrimRef> prims, const Aabb& cell, const Aabb& content,
-                    int depth) const {
-    Built out;
+  std::unique_ptr<KdPartial> build_large(std::vector<PrimRef> prims, const Aabb& cell,
+                                         const Aabb& content, int depth,
+                                         std::uint64_t& evals) const {
+    auto part = std::make_unique<KdPartial>();
     const std::size_t n = prims.size();
     const bool parallel = n >= kParallelNode;
     const BinnedSplit split = choose(prims, cell, content, depth, parallel);
-    out.evals = split.evals;
+    evals += split.evals;
     if (split.axis < 0) {
-      out.node = leaf(prims);
-      return out;
+      add_leaf(prims, part->chunk);
+      return part;
     }
     std::vector<PrimRef> below(split.n_below), above(split.n_above);
     Aabb below_content, above_content;
@@ -57,35 +54,39 @@ class BinnedBuilder {
                      parallel);
     prims = {};
     const auto [below_cell, above_cell] = child_cells(cell, split);
-    Built b, a;
+    part->axis = split.axis;
+    part->split = split.position;
+    std::uint64_t eb = 0, ea = 0;
     tbb::parallel_invoke(
-        [&] { b = build_task(std::move(below), below_cell, below_content, depth + 1); },
-        [&] { a = build_task(std::move(above), above_cell, above_content, depth + 1); });
-    return join(std::move(out), split, std::move(b), std::move(a));
+        [&] { part->below = build_task(std::move(below), below_cell, below_content, depth + 1, eb); },
+        [&] { part->above = build_task(std::move(above), above_cell, above_content, depth + 1, ea); });
+    evals += eb + ea;
+    return part;
   }
 
  private:
-  Built build_task(std::vector<PrimRef> prims, const Aabb& cell, const Aabb& content,
-                   int depth) const {
+  std::unique_ptr<KdPartial> build_task(std::vector<PrimRef> prims, const Aabb& cell,
+                                        const Aabb& content, int depth,
+                                        std::uint64_t& evals) const {
     if (prims.size() >= kParallelSubtree)
-      return build_large(std::move(prims), cell, content, depth);
+      return build_large(std::move(prims), cell, content, depth, evals);
     // Small subtrees never wait for other tasks, so one arena per thread serves them all.
+    auto part = std::make_unique<KdPartial>();
     BumpArena& arena = arenas_.local();
     const BumpArena::Mark mark = arena.mark();
-    Built built = build_small(prims, cell, content, depth, arena);
+    build_small(prims, cell, content, depth, arena, part->chunk, evals);
     arena.release(mark);
-    return built;
+    return part;
   }
 
-  // A node whose arrays live in `arena`: sequential below it.
-  Built build_small(std::span<const PrimRef> prims, const Aabb& cell, const Aabb& content,
-                    int depth, BumpArena& arena) const {
-    Built out;
+  // A node whose arrays live in `arena`: sequential below it, written into `out`.
+  void build_small(std::span<const PrimRef> prims, const Aabb& cell, const Aabb& content,
+                   int depth, BumpArena& arena, KdChunk& out, std::uint64_t& evals) const {
     const BinnedSplit split = choose(prims, cell, content, depth, false);
-    out.evals = split.evals;
+    evals += split.evals;
     if (split.axis < 0) {
-      out.node = leaf(prims);
-      return out;
+      add_leaf(prims, out);
+      return;
     }
     const BumpArena::Mark mark = arena.mark();
     const std::span<PrimRef> below(arena.allocate<PrimRef>(split.n_below), split.n_below);
@@ -94,10 +95,11 @@ class BinnedBuilder {
     partition_binned(prims, triangles_, cell, split, below, above, below_content, above_content,
                      false);
     const auto [below_cell, above_cell] = child_cells(cell, split);
-    Built b = build_small(below, below_cell, below_content, depth + 1, arena);
-    Built a = build_small(above, above_cell, above_content, depth + 1, arena);
+    const std::size_t index = out.open_interior();
+    build_small(below, below_cell, below_content, depth + 1, arena, out, evals);
+    out.set_interior(index, split.axis, split.position);
+    build_small(above, above_cell, above_content, depth + 1, arena, out, evals);
     arena.release(mark);
-    return join(std::move(out), split, std::move(b), std::move(a));
   }
 
   // The split to make, or axis -1 for a leaf (the rules shared by every kd builder).
@@ -121,21 +123,10 @@ class BinnedBuilder {
     return {below, above};
   }
 
-  static std::unique_ptr<KdBuildNode> leaf(std::span<const PrimRef> prims) {
-    auto node = std::make_unique<KdBuildNode>();
-    node->prims.reserve(prims.size());
-    for (const PrimRef& r : prims) node->prims.push_back(r.id);
-    return node;
-  }
-
-  static Built join(Built out, const BinnedSplit& split, Built below, Built above) {
-    out.node = std::make_unique<KdBuildNode>();
-    out.node->axis = split.axis;
-    out.node->split = split.position;
-    out.node->below = std::move(below.node);
-    out.node->above = std::move(above.node);
-    out.evals += below.evals + above.evals;
-    return out;
+  static void add_leaf(std::span<const PrimRef> prims, KdChunk& out) {
+    out.nodes.push_back(KdNode::leaf(static_cast<std::uint32_t>(out.prims.size()),
+                                     static_cast<std::uint32_t>(prims.size())));
+    for (const PrimRef& r : prims) out.prims.push_back(r.id);
   }
 
   std::span<const Triangle> triangles_;
@@ -165,10 +156,9 @@ KdBuildResult build_kd_binned(std::span<const Triangle> triangles, const Aabb& c
     content.extend(clipped);
   }
   const BinnedBuilder builder(triangles, config, prims.size());
-  Built built = builder.build_large(std::move(prims), cell, content, 0);
   KdBuildResult result;
-  result.root = std::move(built.node);
-  result.cost_evals = built.evals;
+  auto top = builder.build_large(std::move(prims), cell, content, 0, result.cost_evals);
+  result.tree = assemble_kd(*top, cell);
   return result;
 }
 

@@ -181,10 +181,10 @@ void partition_binned(std::span<const PrimRef> prims, std::span<const Triangle> 
         case kBoth: {
           const Triangle& t = triangles[r.id];
           PrimRef& b = below[ob++];
-          b = {clip_triangle_bounds_fast(t, below_cell), r.id};
-          cb.extend(b.bounds);
           PrimRef& a = above[oa++];
-          a = {clip_triangle_bounds_fast(t, above_cell), r.id};
+          b.id = a.id = r.id;
+          clip_triangle_split(t, cell, axis, position, b.bounds, a.bounds);
+          cb.extend(b.bounds);
           ca.extend(a.bounds);
           break;
         }

@@ -154,6 +154,33 @@ GoldenPrims make_golden_prims(std::span<const Triangle> triangles, const Aabb& c
   return prims;
 }
 
+GoldenPrims make_golden_prims(std::span<const PrimRef> refs, BumpArena* arena) {
+  EventCounts counts{};
+  for (const PrimRef& r : refs) count_events(r.bounds, counts);
+  GoldenPrims prims(refs.size(), counts, arena);
+  for (std::size_t i = 0; i < refs.size(); ++i) {
+    prims.ids()[i] = refs[i].id;
+    prims.bounds()[i] = refs[i].bounds;
+  }
+  thread_local std::vector<std::uint64_t> keys;
+  for (int axis = 0; axis < 3; ++axis) {
+    for (int kind = 0; kind < 3; ++kind) {
+      keys.clear();
+      float pos;
+      for (std::size_t i = 0; i < refs.size(); ++i)
+        if (event_of(refs[i].bounds, axis, kind, pos))
+          keys.push_back(event_key(pos, static_cast<std::uint32_t>(i)));
+      sort_events(keys.data(), keys.size());
+      const EventSpan& e = prims.events(axis, kind);
+      for (std::size_t j = 0; j < keys.size(); ++j) {
+        e.pos[j] = from_key(static_cast<std::uint32_t>(keys[j] >> 32));
+        e.prim[j] = static_cast<std::uint32_t>(keys[j]);
+      }
+    }
+  }
+  return prims;
+}
+
 namespace {
 
 // Temporary arrays of a split: from the scratch arena when there is one, else the heap.
@@ -235,8 +262,7 @@ void split_golden_prims(GoldenPrims& node, std::span<const Triangle> triangles, 
   const auto clip = [&](std::size_t begin, std::size_t end) {
     for (std::size_t k = begin; k < end; ++k) {
       const Triangle& t = triangles[ids[straddlers[k]]];
-      clipped[2 * k] = clip_triangle_bounds_fast(t, below_cell);
-      clipped[2 * k + 1] = clip_triangle_bounds_fast(t, above_cell);
+      clip_triangle_split(t, cell, axis, position, clipped[2 * k], clipped[2 * k + 1]);
     }
   };
   if (parallel)

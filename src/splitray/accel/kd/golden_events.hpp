@@ -11,6 +11,7 @@
 #include <span>
 
 #include "splitray/accel/kd/binned_arena.hpp"
+#include "splitray/accel/kd/binned_split.hpp"
 #include "splitray/accel/kd/golden_search.hpp"
 #include "splitray/core/triangle.hpp"
 
@@ -54,6 +55,10 @@ class GoldenPrims {
 
 // The root: every triangle with finite bounds, clipped to `cell` (its bounds ∩ cell).
 GoldenPrims make_golden_prims(std::span<const Triangle> triangles, const Aabb& cell, bool parallel);
+
+// A node's primitives (bounds already clipped to its cell) with their lists sorted on the
+// spot: predicted rebuilds keep nodes without lists and make them where a search needs them.
+GoldenPrims make_golden_prims(std::span<const PrimRef> refs, BumpArena* arena);
 
 struct GoldenSplitOptions {
   bool parallel = false;         // split the lists of a large node in parallel

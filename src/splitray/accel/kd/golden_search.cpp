@@ -53,9 +53,11 @@ SplitCandidate count_and_cost(const AxisEvents& events, const KdAxisCost& cost, 
                               std::uint32_t& evals) {
   const std::size_t planes_below = count_less(events.planes, position);
   const std::size_t planes_at = count_less_equal(events.planes, position) - planes_below;
-  const std::size_t below = count_less(events.starts, position) + planes_below;
+  const std::size_t below = count_less(events.starts, position) + planes_below +
+                            events.below_before;
   const std::size_t above = (events.ends.size() - count_less_equal(events.ends, position)) +
-                            (events.planes.size() - planes_below - planes_at);
+                            (events.planes.size() - planes_below - planes_at) +
+                            events.above_after;
   return cost_split(cost, position, below, above, planes_at, evals);
 }
 
@@ -184,7 +186,7 @@ GoldenSearchResult exhaustive_search_axis(const AxisEvents& events, const Aabb& 
   const KdAxisCost axis_cost(cost, cell, axis);
   const float cell_lo = cell.lo[axis], cell_hi = cell.hi[axis];
   std::size_t i = 0, j = 0, k = 0;
-  std::size_t below = 0, above = n_ends + n_planes;
+  std::size_t below = events.below_before, above = n_ends + n_planes + events.above_after;
   double best = kInf;
   float best_position = 0;
   std::size_t best_below = 0, best_above = 0;

@@ -55,6 +55,9 @@ struct AxisEvents {
   std::span<const float> starts;  // lo of the primitives with lo < hi on this axis
   std::span<const float> ends;    // hi of those primitives
   std::span<const float> planes;  // position of the primitives with lo == hi (in-plane)
+  // Lists restricted to a bracket [lo, hi] (predicted rebuilds) leave out the primitives
+  // below every position of it (counted below) and those above (counted above).
+  std::size_t below_before = 0, above_after = 0;
 
   std::size_t prims() const { return starts.size() + planes.size(); }
   std::size_t events() const { return starts.size() + ends.size() + planes.size(); }

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
+#include <cstdint>
 #include <limits>
 #include <vector>
 
@@ -9,57 +11,101 @@
 
 namespace splitray {
 
+namespace {
+
+// A float as an unsigned key of the same order (-0 made +0 first, as the sweep compares).
+std::uint32_t order_key(float f) {
+  const std::uint32_t u = std::bit_cast<std::uint32_t>(f + 0.0f);
+  return (u & 0x80000000u) ? ~u : (u | 0x80000000u);
+}
+float from_key(std::uint32_t k) {
+  return std::bit_cast<float>((k & 0x80000000u) ? (k & 0x7fffffffu) : ~k);
+}
+
+// Event types in sweep order at one position, as in exhaustive_search_axis: primitives
+// ending there leave the above side first, in-plane ones are placed, starting ones join
+// the below side after the plane is costed.
+enum : std::uint64_t { kEnd = 0, kPlane = 1, kStart = 2 };
+
+}  // namespace
+
+// One sorted array of (position, type) keys per axis and one linear sweep over it: the
+// same positions, counts, costs and ties as exhaustive_search_axis over three sorted lists,
+// with one sort and no three-way merge (small nodes are most of a kd build's nodes).
 BinnedSplit find_small_split(std::span<const PrimRef> prims, const Aabb& cell,
-                             const KdSplitCost& cost) {
+                             const KdSplitCost& cost, double* axis_costs) {
   const std::size_t n = prims.size();
   constexpr std::size_t kStack = 64;
-  std::array<float, 3 * kStack> stack_lists;
-  std::vector<float> heap_lists;
-  float* starts = stack_lists.data();
+  std::array<std::uint64_t, 2 * kStack> stack_keys;
+  std::vector<std::uint64_t> heap_keys;
+  std::uint64_t* keys = stack_keys.data();
   if (n > kStack) {
-    heap_lists.resize(3 * n);
-    starts = heap_lists.data();
+    heap_keys.resize(2 * n);
+    keys = heap_keys.data();
   }
-  float* ends = starts + n;
-  float* planes = ends + n;
   BinnedSplit best;
   best.cost = std::numeric_limits<double>::infinity();
+  if (axis_costs)
+    for (int a = 0; a < 3; ++a) axis_costs[a] = std::numeric_limits<double>::infinity();
   for (int a = 0; a < 3; ++a) {
-    if (!(cell.lo[a] < cell.hi[a])) continue;
-    std::size_t n_spans = 0, n_planes = 0;
+    const float cell_lo = cell.lo[a], cell_hi = cell.hi[a];
+    if (!(cell_lo < cell_hi)) continue;
+    std::size_t m = 0;
     for (const PrimRef& r : prims) {
       const float lo = r.bounds.lo[a], hi = r.bounds.hi[a];
       if (lo == hi) {
-        planes[n_planes++] = lo;
+        keys[m++] = (std::uint64_t{order_key(lo)} << 2) | kPlane;
       } else {
-        starts[n_spans] = lo;
-        ends[n_spans++] = hi;
+        keys[m++] = (std::uint64_t{order_key(lo)} << 2) | kStart;
+        keys[m++] = (std::uint64_t{order_key(hi)} << 2) | kEnd;
       }
     }
-    std::sort(starts, starts + n_spans);
-    std::sort(ends, ends + n_spans);
-    std::sort(planes, planes + n_planes);
-    const AxisEvents events{{starts, n_spans}, {ends, n_spans}, {planes, n_planes}};
-    const GoldenSearchResult r =
-        exhaustive_search_axis(events, cell, a, cost, cell.lo[a], cell.hi[a]);
-    best.evals += r.evals;
-    if (r.best.valid() && r.best.cost < best.cost) {
-      best.cost = r.best.cost;
+    std::sort(keys, keys + m);
+    const KdAxisCost axis_cost(cost, cell, a);
+    double a_cost = std::numeric_limits<double>::infinity();
+    float a_pos = 0;
+    std::size_t a_below = 0, a_above = 0;
+    bool a_planar_below = true;
+    std::size_t below = 0, above = n;
+    for (std::size_t i = 0; i < m;) {
+      const std::uint64_t at = keys[i] >> 2;
+      std::size_t counts[3] = {0, 0, 0};
+      for (; i < m && (keys[i] >> 2) == at; ++i) ++counts[keys[i] & 3];
+      const std::size_t planar = counts[kPlane];
+      above -= counts[kEnd] + planar;
+      const float p = from_key(static_cast<std::uint32_t>(at));
+      if (p > cell_lo && p < cell_hi) {
+        double c = axis_cost(p, below + planar, above);
+        ++best.evals;
+        if (c < a_cost)
+          a_cost = c, a_pos = p, a_below = below + planar, a_above = above, a_planar_below = true;
+        if (planar > 0) {
+          c = axis_cost(p, below, above + planar);
+          ++best.evals;
+          if (c < a_cost)
+            a_cost = c, a_pos = p, a_below = below, a_above = above + planar,
+            a_planar_below = false;
+        }
+      }
+      below += counts[kStart] + planar;
+    }
+    if (!(a_cost < std::numeric_limits<double>::infinity())) continue;
+    if (axis_costs) axis_costs[a] = a_cost;
+    if (a_cost < best.cost) {
+      best.cost = a_cost;
       best.axis = a;
-      best.position = r.best.position;
-      best.n_below = r.best.n_below;
-      best.n_above = r.best.n_above;
-      best.planar_below = r.best.planar_below;
+      best.position = a_pos;
+      best.n_below = a_below;
+      best.n_above = a_above;
+      best.planar_below = a_planar_below;
     }
   }
   return best;
 }
 
-std::unique_ptr<KdBuildNode> build_small_subtree(const SmallSubtree& build,
-                                                 std::span<const PrimRef> prims, const Aabb& cell,
-                                                 int depth, BumpArena& arena,
-                                                 std::uint64_t& evals) {
-  auto node = std::make_unique<KdBuildNode>();
+void build_small_subtree(const SmallSubtree& build, std::span<const PrimRef> prims,
+                         const Aabb& cell, int depth, BumpArena& arena, std::uint64_t& evals,
+                         KdChunk& out) {
   const std::size_t n = prims.size();
   BinnedSplit split;
   if (n > build.max_leaf && depth < build.max_depth && cell.half_area() > 0) {
@@ -67,9 +113,10 @@ std::unique_ptr<KdBuildNode> build_small_subtree(const SmallSubtree& build,
     evals += split.evals;
   }
   if (split.axis < 0 || !(split.cost < build.cost.leaf(n))) {
-    node->prims.reserve(n);
-    for (const PrimRef& r : prims) node->prims.push_back(r.id);
-    return node;
+    out.nodes.push_back(KdNode::leaf(static_cast<std::uint32_t>(out.prims.size()),
+                                     static_cast<std::uint32_t>(n)));
+    for (const PrimRef& r : prims) out.prims.push_back(r.id);
+    return;
   }
   const BumpArena::Mark mark = arena.mark();
   const std::span<PrimRef> below(arena.allocate<PrimRef>(split.n_below), split.n_below);
@@ -80,12 +127,11 @@ std::unique_ptr<KdBuildNode> build_small_subtree(const SmallSubtree& build,
   Aabb below_cell = cell, above_cell = cell;
   below_cell.hi[split.axis] = split.position;
   above_cell.lo[split.axis] = split.position;
-  node->axis = split.axis;
-  node->split = split.position;
-  node->below = build_small_subtree(build, below, below_cell, depth + 1, arena, evals);
-  node->above = build_small_subtree(build, above, above_cell, depth + 1, arena, evals);
+  const std::size_t index = out.open_interior();
+  build_small_subtree(build, below, below_cell, depth + 1, arena, evals, out);
+  out.set_interior(index, split.axis, split.position);
+  build_small_subtree(build, above, above_cell, depth + 1, arena, evals, out);
   arena.release(mark);
-  return node;
 }
 
 }  // namespace splitray

@@ -10,6 +10,7 @@
 #include "splitray/accel/kd/binned_arena.hpp"
 #include "splitray/accel/kd/binned_split.hpp"
 #include "splitray/accel/kd/kd_build.hpp"
+#include "splitray/accel/kd/kd_emit.hpp"
 #include "splitray/accel/kd/kd_sah.hpp"
 
 namespace splitray {
@@ -21,15 +22,16 @@ struct SmallSubtree {
   std::size_t max_leaf;
 };
 
-// Builds the subtree of `prims` (bounds clipped to `cell`) at `depth` by the shared rules;
-// adds its cost evaluations to `evals`.
-std::unique_ptr<KdBuildNode> build_small_subtree(const SmallSubtree& build,
-                                                 std::span<const PrimRef> prims, const Aabb& cell,
-                                                 int depth, BumpArena& arena, std::uint64_t& evals);
+// Builds the subtree of `prims` (bounds clipped to `cell`) at `depth` by the shared rules
+// into `out`; adds its cost evaluations to `evals`.
+void build_small_subtree(const SmallSubtree& build, std::span<const PrimRef> prims,
+                         const Aabb& cell, int depth, BumpArena& arena, std::uint64_t& evals,
+                         KdChunk& out);
 
 // The exact SAH minimum over the bounds of a few primitives (ties: lower axis, position),
-// in-plane primitives on their cheaper side.
+// in-plane primitives on their cheaper side. `axis_costs`, when given, receives each axis'
+// best cost (infinity where none).
 BinnedSplit find_small_split(std::span<const PrimRef> prims, const Aabb& cell,
-                             const KdSplitCost& cost);
+                             const KdSplitCost& cost, double* axis_costs = nullptr);
 
 }  // namespace splitray

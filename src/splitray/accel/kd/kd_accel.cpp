@@ -1,5 +1,7 @@
 #include "splitray/accel/kd/kd_accel.hpp"
 
+#include <algorithm>
+
 #include "splitray/accel/kd/kd_sah.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/core/parallel.hpp"
@@ -18,6 +20,38 @@ constexpr NamedBuilder kBuilders[] = {
     {"golden", build_kd_golden},
     {"binned", build_kd_binned},
 };
+
+// The leaves' triangle rows (KdLeafTriangles) sit at 9 x each leaf's first reference, so the
+// leaves' reference ranges must tile prim_ids. When a tree's leaves share ranges or leave gaps,
+// the references are copied leaf after leaf in node order (the cells stay the same).
+void tile_leaf_ranges(KdTree& tree) {
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> ranges;  // (first, count)
+  for (const KdNode& node : tree.nodes) {
+    if (!node.is_leaf() || node.count() == 0) continue;
+    if (std::uint64_t{node.prim_offset} + node.count() > tree.prim_ids.size())
+      throw Error("--accel kd", "a leaf refers past the end of the reference list");
+    ranges.emplace_back(node.prim_offset, node.count());
+  }
+  std::sort(ranges.begin(), ranges.end());
+  std::uint64_t next = 0;
+  bool tiled = true;
+  for (const auto& [first, count] : ranges) {
+    tiled = tiled && first == next;
+    next = std::uint64_t{first} + count;
+  }
+  if (tiled && next == tree.prim_ids.size()) return;
+  std::vector<std::uint32_t> ids;
+  for (KdNode& node : tree.nodes) {
+    if (!node.is_leaf() || node.count() == 0) continue;
+    const std::size_t first = ids.size();
+    if (first + node.count() > KdNode::kMaxIndex)
+      throw Error("--accel kd", "too many primitive references for the 8-byte node format");
+    ids.insert(ids.end(), tree.prim_ids.begin() + node.prim_offset,
+               tree.prim_ids.begin() + node.prim_offset + node.count());
+    node = KdNode::leaf(static_cast<std::uint32_t>(first), node.count());
+  }
+  tree.prim_ids = std::move(ids);
+}
 
 }  // namespace
 
@@ -52,9 +86,9 @@ std::unique_ptr<Accel> make_kd(std::span<const Triangle> triangles, const BuildC
   Aabb bounds;
   for (const Triangle& t : triangles) bounds.extend(t.bounds());
   KdBuildResult built = builder(triangles, bounds, resolved);
-  if (!built.root) throw Error("--builder " + resolved.builder, "the builder returned no tree");
-  KdTree tree = flatten_kd(*built.root, bounds);
-  built.root.reset();
+  if (!built.root && !built.tree)
+    throw Error("--builder " + resolved.builder, "the builder returned no tree");
+  KdTree tree = take_kd_tree(built, bounds);
   return std::make_unique<KdAccel>(std::move(tree), triangles, resolved, built.cost_evals, timer);
 }
 
@@ -62,20 +96,36 @@ KdAccel::KdAccel(KdTree tree, std::span<const Triangle> triangles, const BuildCo
                  std::uint64_t cost_evals, const Timer& build_timer)
     : tree_(std::move(tree)) {
   if (tree_.nodes.empty()) throw Error("--accel kd", "the tree has no nodes");
+  tile_leaf_ranges(tree_);
   stats_ = kd_tree_stats(tree_, config);
   if (stats_.max_depth > kKdDepthLimit)  // the traversal stack holds one entry per level
     throw Error("--accel kd",
                 "the tree is deeper than " + std::to_string(kKdDepthLimit) + " levels");
-  leaf_triangles_.reserve(tree_.prim_ids.size());
-  for (const std::uint32_t id : tree_.prim_ids) {
+  for (const std::uint32_t id : tree_.prim_ids)
     if (id >= triangles.size()) throw Error("--accel kd", "a leaf refers to a missing triangle");
-    leaf_triangles_.push_back(triangles[id]);
+  // Leaves in the order of their references, as KdLeafTriangles lays them out.
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> leaves;  // (first, count)
+  for (const KdNode& node : tree_.nodes)
+    if (node.is_leaf() && node.count() > 0) leaves.emplace_back(node.prim_offset, node.count());
+  std::sort(leaves.begin(), leaves.end());
+  std::vector<Triangle> leaf;
+  for (const auto& [first, count] : leaves) {
+    leaf.clear();
+    for (std::uint32_t i = first; i < first + count; ++i)
+      leaf.push_back(triangles[tree_.prim_ids[i]]);
+    leaf_triangles_.add_leaf(leaf.data(), count);
   }
+  leaf_triangles_.finish();
+  wide_ = KdWideTree::from(tree_);
+  if (wide_.max_depth > kWideDepthLimit)
+    throw Error("--accel kd", "the tree is too deep for the wide layout's traversal stack");
+  stats_.bytes +=
+      wide_.nodes.size() * sizeof(KdWideNode) + wide_.leaves.size() * sizeof(KdWideLeaf);
   coord_scale_ = std::max(max_component(abs(tree_.bounds.lo)), max_component(abs(tree_.bounds.hi)));
   stats_.accel = "kd";
   stats_.builder = config.builder;
   stats_.prims = triangles.size();
-  stats_.bytes += leaf_triangles_.size() * sizeof(Triangle);
+  stats_.bytes += leaf_triangles_.bytes();
   stats_.cost_evals = cost_evals;
   stats_.build_ms = build_timer.ms();
 }

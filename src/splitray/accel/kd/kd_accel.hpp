@@ -2,10 +2,14 @@
 // The SAH kd-tree behind the common interface.
 #include "splitray/accel/accel.hpp"
 #include "splitray/accel/kd/kd_build.hpp"
+#include "splitray/accel/kd/kd_leaf.hpp"
 #include "splitray/accel/kd/kd_tree.hpp"
+#include "splitray/accel/kd/kd_wide.hpp"
 #include "splitray/core/timer.hpp"
 
 namespace splitray {
+
+struct KdRaySetup;  // kd_ray_setup.hpp
 
 // Builders of --accel kd, the default first.
 std::vector<std::string> kd_builder_names();
@@ -17,6 +21,12 @@ std::unique_ptr<Accel> make_kd(std::span<const Triangle> triangles, const BuildC
 // stack. Cells are widened slightly (relative to the scene's and the ray's scale) when a ray is
 // clipped against them, so rounding at split planes, rays in or parallel to planes and hits at
 // shared edges and vertices never lose the closest hit: results equal `brute` exactly.
+//
+// For speed (AVX2 builds) the tree is also kept as (1) the leaves' triangles in SIMD rows
+// (kd_leaf.hpp, 8 triangles per exact test) and (2) a wide layout of three binary levels per
+// node (kd_wide.hpp) for single rays. The batched intersect traces coherent groups of 8 rays
+// as packets over the binary nodes (kd_packet.cpp) and the other rays in interleaved wide
+// walks (kd_wide_traverse.cpp). Every path gives the single-ray answer, bit for bit.
 class KdAccel final : public Accel {
  public:
   // `tree` references `triangles` by index. Statistics are taken from the tree; build_ms is
@@ -32,15 +42,39 @@ class KdAccel final : public Accel {
 
   const KdTree& tree() const { return tree_; }
 
+  // Deepest wide layout (kd_wide.hpp) the single-ray traversal's stack takes.
+  static constexpr int kWideDepthLimit = 22;
+  // What a walk of the wide layout reads (kd_wide_traverse.cpp).
+  struct WideView {
+    const KdWideNode* nodes;
+    const KdWideLeaf* leaves;
+    const std::uint32_t* ids;
+    const KdLeafTriangles* rows;
+    std::uint32_t root;
+  };
+
  private:
   template <bool kAnyHit>
   bool traverse(const Ray& ray, Hit& hit) const;
   template <bool kAnyHit>
   bool scan(const Ray& ray, Hit& hit) const;
+  // Closest hits of 8 rays at once (kd_packet.cpp). False, with nothing written, when the
+  // rays do not suit a packet. Results equal intersect(ray) for each ray.
+  bool intersect_packet(const Ray* rays, Hit* hits) const;
+  // Closest hits (into hits[i]) or occlusion (into occluded[i]) of rays i = which[k], k < n,
+  // several walks interleaved (kd_wide_traverse.cpp).
+  template <bool kAnyHit>
+  void walk_interleaved(const Ray* rays, const std::uint32_t* which, std::size_t n, Hit* hits,
+                        std::uint8_t* occluded) const;
+  WideView wide_view() const;
+  // Single-ray traversal of the wide layout (kd_wide_traverse.cpp), AVX2 builds only.
+  template <bool kAnyHit>
+  bool traverse_wide(const Ray& ray, const KdRaySetup& setup, Hit& hit) const;
 
   KdTree tree_;
-  std::vector<Triangle> leaf_triangles_;  // the triangle of every entry of tree_.prim_ids
-  float coord_scale_ = 0;                 // largest absolute coordinate of the root cell
+  KdWideTree wide_;                 // the same tree, three levels per node, for single rays
+  KdLeafTriangles leaf_triangles_;  // the triangles of every leaf, in the order of prim_ids
+  float coord_scale_ = 0;           // largest absolute coordinate of the root cell
   AccelStats stats_;
 };
 

@@ -4,6 +4,7 @@
 // final tree depends only on the build decisions, never on the thread count or order.
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -20,7 +21,8 @@ struct KdBuildNode {
 };
 
 struct KdBuildResult {
-  std::unique_ptr<KdBuildNode> root;
+  std::unique_ptr<KdBuildNode> root;  // or, from builders that lay out nodes themselves:
+  std::optional<KdTree> tree;         // the finished tree (then root is null)
   std::uint64_t cost_evals = 0;  // SAH cost evaluations
 };
 
@@ -34,5 +36,8 @@ KdBuildResult build_kd_binned(std::span<const Triangle>, const Aabb&, const Buil
 // Lays out a builder's tree as compact nodes, depth first (below child right after its parent),
 // leaves' references in the same order. Throws Error when the tree exceeds the node format.
 KdTree flatten_kd(const KdBuildNode& root, const Aabb& bounds);
+
+// The tree of a build result: `tree` when the builder made it, else flatten_kd(root).
+KdTree take_kd_tree(KdBuildResult& built, const Aabb& bounds);
 
 }  // namespace splitray

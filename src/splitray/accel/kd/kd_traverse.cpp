@@ -11,10 +11,13 @@
 // (delta = 2^-18 of the scale of the scene and the ray: far above float rounding, far below
 // any cell that matters for speed), and a far cell is skipped only when its widened entry t
 // exceeds the best t (strictly: on equal t a smaller id may wait there).
+#include <algorithm>
 #include <cmath>
 #include <limits>
+#include <vector>
 
 #include "splitray/accel/kd/kd_accel.hpp"
+#include "splitray/accel/kd/kd_ray_setup.hpp"
 #include "splitray/accel/kd/kd_sah.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/core/parallel.hpp"
@@ -34,13 +37,14 @@ struct StackEntry {
 template <bool kAnyHit>
 bool KdAccel::scan(const Ray& ray, Hit& hit) const {
   const WatertightRay wray(ray);
-  for (std::size_t i = 0; i < leaf_triangles_.size(); ++i) {
-    if constexpr (kAnyHit) {
-      float t, u, v;
-      if (intersect_triangle(wray, leaf_triangles_[i], ray.tmin, ray.tmax, t, u, v)) return true;
-    } else {
-      intersect_triangle(wray, leaf_triangles_[i], tree_.prim_ids[i], ray.tmin, hit);
-    }
+  const std::uint32_t* ids = tree_.prim_ids.data();
+  for (const KdNode& node : tree_.nodes) {
+    if (!node.is_leaf() || node.count() == 0) continue;
+    const std::uint32_t first = node.prim_offset;
+    if (intersect_leaf<kAnyHit>(wray, leaf_triangles_.leaf(first), ids + first, node.count(),
+                                ray.tmin, ray.tmax, hit) &&
+        kAnyHit)
+      return true;
   }
   return hit.found();
 }
@@ -49,34 +53,19 @@ template <bool kAnyHit>
 bool KdAccel::traverse(const Ray& ray, Hit& hit) const {
   hit.t = ray.tmax;
   if (!(ray.tmin <= ray.tmax)) return false;  // no t qualifies (also NaN bounds)
-  const float max_dir = max_component(abs(ray.dir));
-  if (!is_finite(ray.org) || !is_finite(ray.dir) || !(max_dir > 0)) return scan<kAnyHit>(ray, hit);
-
-  // Direction components near zero are made tiny but non-zero: the inverse stays finite, and
-  // the widening below covers the difference.
-  const float tiny = std::max(max_dir * 0x1p-40f, std::numeric_limits<float>::min());
-  const Aabb& box = tree_.bounds;
-  const Vec3 far_corner = max(abs(ray.org - box.lo), abs(ray.org - box.hi));  // L1 norm >= distance
-  const float delta = 0x1p-18f * (far_corner.x + far_corner.y + far_corner.z + coord_scale_);
-  const float pad_t = delta / max_dir;
-  float inv[3], pad[3], org[3];
-  float t0 = ray.tmin, t1 = ray.tmax;
-  for (int a = 0; a < 3; ++a) {
-    float d = ray.dir[a];
-    if (std::fabs(d) < tiny) d = std::copysign(tiny, d);
-    inv[a] = 1.0f / d;
-    pad[a] = delta * std::fabs(inv[a]) + pad_t;
-    org[a] = ray.org[a];
-    const float ta = (box.lo[a] - org[a]) * inv[a], tb = (box.hi[a] - org[a]) * inv[a];
-    const float enter = std::min(ta, tb) - pad[a], leave = std::max(ta, tb) + pad[a];
-    if (enter > t0) t0 = enter;  // comparisons written so that NaN (inf - inf) widens
-    if (leave < t1) t1 = leave;
-  }
+  if (!KdRaySetup::traversable(ray)) return scan<kAnyHit>(ray, hit);
+  const KdRaySetup setup(ray, tree_.bounds, coord_scale_);
+  const float* inv = setup.inv;
+  const float* pad = setup.pad;
+  const float* org = setup.org;
+  float t0 = setup.t0, t1 = setup.t1;
   if (!(t0 <= t1)) return false;
+#if defined(__AVX2__)
+  return traverse_wide<kAnyHit>(ray, setup, hit);
+#endif
 
   const WatertightRay wray(ray);
   const KdNode* nodes = tree_.nodes.data();
-  const Triangle* triangles = leaf_triangles_.data();
   const std::uint32_t* ids = tree_.prim_ids.data();
   StackEntry stack[kKdDepthLimit];
   int top = 0;
@@ -103,14 +92,12 @@ bool KdAccel::traverse(const Ray& ray, Hit& hit) const {
       continue;
     }
 
-    const std::uint32_t begin = node.prim_offset, end = begin + node.count();
-    for (std::uint32_t i = begin; i < end; ++i) {
-      if constexpr (kAnyHit) {
-        float t, u, v;
-        if (intersect_triangle(wray, triangles[i], ray.tmin, ray.tmax, t, u, v)) return true;
-      } else {
-        intersect_triangle(wray, triangles[i], ids[i], ray.tmin, hit);
-      }
+    if (const std::uint32_t count = node.count(); count > 0) {
+      const std::uint32_t first = node.prim_offset;
+      if (intersect_leaf<kAnyHit>(wray, leaf_triangles_.leaf(first), ids + first, count, ray.tmin,
+                                  ray.tmax, hit) &&
+          kAnyHit)
+        return true;
     }
     for (;;) {
       if (top == 0) return hit.found();
@@ -138,15 +125,33 @@ bool KdAccel::occluded(const Ray& ray) const {
 
 void KdAccel::intersect(std::span<const Ray> rays, std::span<Hit> hits) const {
   if (hits.size() < rays.size()) throw Error("kd intersect", "fewer hit slots than rays");
+  if (rays.size() > std::numeric_limits<std::uint32_t>::max())
+    throw Error("kd intersect", "more than 2^32 - 1 rays in one call");
   parallel_chunks(rays.size(), 256, [&](std::size_t begin, std::size_t end) {
-    for (std::size_t i = begin; i < end; ++i) hits[i] = KdAccel::intersect(rays[i]);
+    // Coherent groups of 8 as packets (starting at multiples of 8, so the same rays share a
+    // packet for any chunking); the other rays in interleaved single-ray walks.
+    std::vector<std::uint32_t> rest;
+    rest.reserve(end - begin);
+    for (std::size_t i = begin; i < end;) {
+      if (i % 8 == 0 && i + 8 <= end && intersect_packet(rays.data() + i, hits.data() + i)) {
+        i += 8;
+        continue;
+      }
+      const std::size_t group_end = std::min(end, (i / 8 + 1) * 8);
+      for (; i < group_end; ++i) rest.push_back(static_cast<std::uint32_t>(i));
+    }
+    walk_interleaved<false>(rays.data(), rest.data(), rest.size(), hits.data(), nullptr);
   });
 }
 
 void KdAccel::occluded(std::span<const Ray> rays, std::span<std::uint8_t> result) const {
   if (result.size() < rays.size()) throw Error("kd occluded", "fewer result slots than rays");
+  if (rays.size() > std::numeric_limits<std::uint32_t>::max())
+    throw Error("kd occluded", "more than 2^32 - 1 rays in one call");
   parallel_chunks(rays.size(), 256, [&](std::size_t begin, std::size_t end) {
-    for (std::size_t i = begin; i < end; ++i) result[i] = KdAccel::occluded(rays[i]) ? 1 : 0;
+    std::vector<std::uint32_t> all(end - begin);
+    for (std::size_t i = begin; i < end; ++i) all[i - begin] = static_cast<std::uint32_t>(i);
+    walk_interleaved<true>(rays.data(), all.data(), all.size(), nullptr, result.data());
   });
 }
 

@@ -64,4 +64,11 @@ void write_neural_model(const NeuralModel& model, const std::string& path);  // 
 float encode_axis(const LevelEncoder& encoder, NeuralPooling pooling, std::span<const float> coords,
                   std::vector<float>& scratch);
 
+// encode_axis over many inputs at once (all nodes and axes of one tree level share the
+// level's encoder, so their points go through the per-point layers in one pass): input g is
+// coords[offsets[g], offsets[g + 1]); out[g] receives exactly what encode_axis gives for it.
+void encode_groups(const LevelEncoder& encoder, NeuralPooling pooling, std::span<const float> coords,
+                   std::span<const std::size_t> offsets, std::span<float> out,
+                   std::vector<float>& scratch);
+
 }  // namespace splitray

@@ -8,8 +8,8 @@
 #include <optional>
 #include <span>
 #include <string>
-#include <unordered_map>
 #include <variant>
+#include <vector>
 
 #include "splitray/accel/predict/kalman.hpp"
 #include "splitray/accel/predict/wiener.hpp"
@@ -71,11 +71,12 @@ class SplitPredictor {
   std::optional<SplitPrediction> predict(std::uint64_t path, int depth) const;
   // Ends a frame: feeds every observation to its node's filter, forgets nodes not seen.
   void update(std::span<const SplitObservation> observations);
-  std::size_t tracked() const { return tracks_.size(); }
-  void clear() { tracks_.clear(); }
+  std::size_t tracked() const { return live_; }
+  void clear();
 
  private:
   struct Track {
+    std::uint64_t path = 0;
     int depth = 0, axis = 0;
     double margin = 0;       // axis margin at the last full search
     double cost_ratio = 0;   // split cost / leaf cost in the last frame
@@ -84,8 +85,17 @@ class SplitPredictor {
     std::variant<KalmanFilter, WienerPredictor> filter;
     std::uint64_t frame = 0;
   };
+  // Tracks in a vector, found through an open-addressing index on the path (a frame looks up
+  // and updates one track per node, hundreds of thousands: a node-based map costs as much
+  // as the build it saves). Tracks not seen in the last frame are dead and dropped in bulk.
+  std::uint32_t find(std::uint64_t path) const;  // kNone when absent
+  void rebuild_index();
+  static constexpr std::uint32_t kNone = ~0u;
   PredictorConfig config_;
-  std::unordered_map<std::uint64_t, Track> tracks_;
+  std::vector<Track> tracks_;
+  std::vector<std::uint64_t> keys_;  // 0 = empty slot
+  std::vector<std::uint32_t> slots_;
+  std::size_t live_ = 0;
   std::uint64_t frame_ = 0;
 };
 

@@ -1,0 +1,29 @@
+#pragma once
+// The golden builder's recursion, shared by `--builder golden` and the predicted rebuilds of
+// animations (predicted_builder.hpp): with a SplitPredictor, a node the predictor knows
+// first searches its predicted bracket (paper 000, Algorithm 1); without one, or where no
+// prediction exists, every node runs golden's full search, so the trees agree.
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <vector>
+
+#include "splitray/accel/kd/kd_build.hpp"
+#include "splitray/accel/predict/split_predictor.hpp"
+
+namespace splitray {
+
+// What a predicted build saw at one node it searched (nodes of more than 32 primitives).
+struct GoldenNodeRecord {
+  SplitObservation observation;
+  std::optional<SplitPrediction> prediction;
+  bool used_prediction = false, fell_back = false;
+};
+
+// Builds the golden tree of `triangles` in `cell`, steered by `predictor` when given; the
+// searched nodes' records go to `records` (sorted by path) when given.
+KdBuildResult build_kd_golden_steered(std::span<const Triangle> triangles, const Aabb& cell,
+                                      const BuildConfig& config, const SplitPredictor* predictor,
+                                      std::vector<GoldenNodeRecord>* records);
+
+}  // namespace splitray

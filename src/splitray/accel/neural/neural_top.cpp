@@ -1,0 +1,158 @@
+#include "splitray/accel/neural/neural_top.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <ctime>
+
+#include "splitray/core/errors.hpp"
+#include "splitray/core/timer.hpp"
+
+namespace splitray {
+
+namespace {
+
+double thread_cpu_ms() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) * 1e-6;
+}
+
+// The weight of a cell in Eq. 4: surface area (SAH, Eq. 5) or the volume of the cell grown by
+// the search radius (VVH, Eq. 6). Only ratios are used.
+double cell_measure(const Aabb& box, NeuralCost cost, float radius) {
+  if (box.empty()) return 0;
+  const Vec3 e = box.extent();
+  if (cost == NeuralCost::sah)
+    return static_cast<double>(e.x) * e.y + static_cast<double>(e.y) * e.z +
+           static_cast<double>(e.z) * e.x;
+  const double r2 = 2.0 * std::max(0.0f, radius);
+  return (e.x + r2) * (e.y + r2) * (e.z + r2);
+}
+
+}  // namespace
+
+std::size_t NeuralTop::leaves() const {
+  std::size_t n = 0;
+  for (const NeuralTopNode& node : nodes) n += node.leaf() ? 1 : 0;
+  return n;
+}
+
+NeuralTop infer_neural_top(const NeuralModel& model, std::span<const Vec3> samples,
+                           const Aabb& root, const NeuralTopOptions& options) {
+  if (model.levels.empty()) throw Error("--model", "the neural model has no levels");
+  if (root.empty()) throw Error("--builder neural", "the input has empty bounds");
+  const Timer timer;
+  const double cpu_start = thread_cpu_ms();
+  const int depth =
+      options.max_depth > 0 ? std::min(options.max_depth, model.depth()) : model.depth();
+  const double scale = options.population > 0 && !samples.empty()
+                           ? options.population / static_cast<double>(samples.size())
+                           : 1.0;
+  const double ct = options.traversal_cost, ci = options.intersection_cost;
+
+  NeuralTop top;
+  std::vector<std::vector<std::uint32_t>> active(1);  // sample indices per node
+  top.nodes.push_back({});
+  top.nodes[0].box = root;
+  for (std::size_t i = 0; i < samples.size(); ++i)
+    if (root.contains(samples[i])) active[0].push_back(static_cast<std::uint32_t>(i));
+  top.nodes[0].samples = static_cast<std::uint32_t>(active[0].size());
+
+  // Level by level: every node and axis of a level goes through the level's encoder in one
+  // batch (encode_groups), then each node picks its axis or stays a leaf.
+  std::vector<std::size_t> frontier = {0}, next, offsets, candidates;
+  std::vector<Aabb> tight;
+  std::vector<float> coords, lambdas, scratch;
+  for (int level = 0; level < depth && !frontier.empty(); ++level) {
+    candidates.clear();
+    tight.clear();
+    coords.clear();
+    offsets.assign(1, 0);
+    for (const std::size_t n : frontier) {
+      const std::vector<std::uint32_t>& pts = active[n];
+      if (pts.size() < 2 || !(cell_measure(top.nodes[n].box, options.cost, options.radius) > 0))
+        continue;
+      Aabb t;
+      for (const std::uint32_t p : pts) t.extend(samples[p]);
+      candidates.push_back(n);
+      tight.push_back(t);
+      for (int axis = 0; axis < 3; ++axis) {
+        const float lo = t.lo[axis], extent = t.hi[axis] - lo;
+        if (extent > 0)  // else all active points on one plane: nothing to split, no input
+          for (const std::uint32_t p : pts)
+            coords.push_back(std::clamp(1.0f + (samples[p][axis] - lo) / extent, 1.0f, 2.0f));
+        offsets.push_back(coords.size());
+      }
+    }
+    lambdas.resize(offsets.size() - 1);
+    encode_groups(model.levels[static_cast<std::size_t>(level)], model.pooling, coords, offsets,
+                  lambdas, scratch);
+
+    next.clear();
+    for (std::size_t c = 0; c < candidates.size(); ++c) {
+      const std::size_t n = candidates[c];
+      const Aabb box = top.nodes[n].box;  // copies: top.nodes grows below
+      const std::vector<std::uint32_t> pts = std::move(active[n]);
+      active[n].clear();
+      const double parent = cell_measure(box, options.cost, options.radius);
+      double best = ci * static_cast<double>(pts.size()) * scale;  // the leaf (Eq. 4, q)
+      int best_axis = -1;
+      float best_split = 0;
+      for (int axis = 0; axis < 3; ++axis) {
+        const float lo = tight[c].lo[axis], extent = tight[c].hi[axis] - lo;
+        if (!(extent > 0)) continue;
+        const float lambda =
+            std::clamp(lambdas[3 * c + static_cast<std::size_t>(axis)], 0.0f, 1.0f);
+        const float split = lo + lambda * extent;  // Eq. 7/14 with the tight bounds
+        if (!(split > box.lo[axis] && split < box.hi[axis])) continue;
+        std::size_t below = 0;
+        for (const std::uint32_t p : pts) below += samples[p][axis] < split ? 1 : 0;
+        Aabb left = box, right = box;
+        left.hi[axis] = split;
+        right.lo[axis] = split;
+        const double cost = ct + ci * scale *
+                                     (cell_measure(left, options.cost, options.radius) *
+                                          static_cast<double>(below) +
+                                      cell_measure(right, options.cost, options.radius) *
+                                          static_cast<double>(pts.size() - below)) /
+                                     parent;
+        if (cost < best) {
+          best = cost;
+          best_axis = axis;
+          best_split = split;
+        }
+      }
+      if (best_axis < 0) continue;
+
+      std::vector<std::uint32_t> below, above;
+      for (const std::uint32_t p : pts)
+        (samples[p][best_axis] < best_split ? below : above).push_back(p);
+      const auto first = static_cast<std::int32_t>(top.nodes.size());
+      NeuralTopNode& node = top.nodes[n];
+      node.axis = best_axis;
+      node.split = best_split;
+      node.child[0] = first;
+      node.child[1] = first + 1;
+      Aabb left = box, right = box;
+      left.hi[best_axis] = best_split;
+      right.lo[best_axis] = best_split;
+      for (const Aabb& cell : {left, right}) {
+        top.nodes.push_back({});
+        top.nodes.back().box = cell;
+        next.push_back(top.nodes.size() - 1);
+      }
+      top.nodes[static_cast<std::size_t>(first)].samples = static_cast<std::uint32_t>(below.size());
+      top.nodes[static_cast<std::size_t>(first) + 1].samples =
+          static_cast<std::uint32_t>(above.size());
+      active.push_back(std::move(below));
+      active.push_back(std::move(above));
+      top.depth = level + 1;
+    }
+    std::swap(frontier, next);
+  }
+  top.inference_ms = timer.ms();
+  top.inference_cpu_ms = thread_cpu_ms() - cpu_start;
+  return top;
+}
+
+}  // namespace splitray

@@ -1,0 +1,55 @@
+#pragma once
+// Greedy inference of a fixed-depth kd-tree top from a point sample (paper 003 §4.3).
+//
+// Per node, top-down and level by level: the samples inside the node's cell are the active
+// points; on each axis their coordinates are normalised to the active points' tight bounds and
+// shifted into [1, 2] and the level's encoder gives λ' (clamped to [0, 1]); the split on that
+// axis lies at tight_lo + λ' (tight_hi - tight_lo) (Eq. 7/14: the tight-bounds offset mapped
+// back to node, hence global, coordinates). The axis is chosen by the local cost of Eq. 4 (SAH
+// of Eq. 5 or VVH of Eq. 6) evaluated on the samples, and the node stays a leaf when that is
+// cheaper than every split. Sample counts are scaled to the full input (× N / M) so that the
+// leaf-or-split decision is the one the full population would make.
+//
+// The result depends only on the model, the samples and the options: it runs on one thread
+// (it takes about a millisecond), never on the thread count.
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "splitray/accel/neural/neural_model.hpp"
+#include "splitray/core/aabb.hpp"
+
+namespace splitray {
+
+struct NeuralTopNode {
+  Aabb box;       // the node's cell
+  int axis = -1;  // -1 = leaf
+  float split = 0;
+  std::int32_t child[2] = {-1, -1};  // below (coordinate < split), above
+  std::uint32_t samples = 0;         // active samples in the cell
+  bool leaf() const { return axis < 0; }
+};
+
+struct NeuralTopOptions {
+  NeuralCost cost = NeuralCost::sah;
+  float traversal_cost = 15;     // c_t (SAH: K_T; VVH: 1.2)
+  float intersection_cost = 20;  // c_i (SAH: K_I; VVH: 1)
+  float radius = 0;              // VVH: cells expanded by this radius
+  double population = 0;         // N, the full input's size; <= 0: the sample count
+  int max_depth = 0;  // levels to infer; 0 or more than the model has = the model's depth
+};
+
+struct NeuralTop {
+  std::vector<NeuralTopNode> nodes;  // level order from the root at 0; children after parents
+  int depth = 0;                     // levels of splits actually made (0 = the root is a leaf)
+  double inference_ms = 0;           // masking, normalisation, network and cost evaluation
+  double inference_cpu_ms = 0;       // the same as CPU time of the (one) thread: robust to load
+  std::size_t leaves() const;
+};
+
+// `samples` are the M points (fewer is fine, extra ones are used as well), `root` the cell of
+// the root (the bounds of the whole input, which may exceed the samples' bounds).
+NeuralTop infer_neural_top(const NeuralModel& model, std::span<const Vec3> samples,
+                           const Aabb& root, const NeuralTopOptions& options);
+
+}  // namespace splitray

@@ -1,0 +1,180 @@
+#include "splitray/query/neural_point_build.hpp"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+
+#include "splitray/accel/neural/neural_accel.hpp"
+#include "splitray/accel/neural/neural_sampling.hpp"
+#include "splitray/core/errors.hpp"
+#include "splitray/core/timer.hpp"
+
+namespace splitray {
+
+namespace {
+
+struct Expander {
+  std::span<const Vec3> points;
+  const NeuralTop& top;
+  PointTreeConfig sub;  // the expansion builder's config
+  float radius;
+  std::vector<std::vector<std::uint32_t>> ids;  // per top node: its points (leaves only)
+  std::vector<PointBuildOutput> built;          // per top node: the leaf cell's subtree
+  std::vector<Aabb> cells;                      // per top node: the cell the tree gives it
+
+  // The cells as the final tree sees them: a child's cell ends at the tight bound of its points
+  // on the split axis (PointNode's below_max / above_min). Returns the node's point count.
+  std::size_t count(int node) {
+    const NeuralTopNode& n = top.nodes[static_cast<std::size_t>(node)];
+    if (n.leaf()) return ids[static_cast<std::size_t>(node)].size();
+    return count(n.child[0]) + count(n.child[1]);
+  }
+
+  // Tight bounds on `axis` of the points below a top node.
+  void extent(int node, int axis, float& lo, float& hi) const {
+    const NeuralTopNode& n = top.nodes[static_cast<std::size_t>(node)];
+    if (n.leaf()) {
+      for (const std::uint32_t i : ids[static_cast<std::size_t>(node)]) {
+        lo = std::min(lo, points[i][axis]);
+        hi = std::max(hi, points[i][axis]);
+      }
+      return;
+    }
+    extent(n.child[0], axis, lo, hi);
+    extent(n.child[1], axis, lo, hi);
+  }
+
+  // Assigns cells top-down, collapsing top nodes one of whose sides has no point (a PointNode
+  // needs points on both sides), and lists the leaf cells to expand.
+  void assign_cells(int node, const Aabb& cell, std::vector<int>& leaves) {
+    const NeuralTopNode& n = top.nodes[static_cast<std::size_t>(node)];
+    cells[static_cast<std::size_t>(node)] = cell;
+    if (n.leaf()) {
+      leaves.push_back(node);
+      return;
+    }
+    const std::size_t below = count(n.child[0]), above = count(n.child[1]);
+    if (below == 0 || above == 0) {
+      assign_cells(below == 0 ? n.child[1] : n.child[0], cell, leaves);
+      return;
+    }
+    float blo = cell.hi[n.axis], bhi = cell.lo[n.axis], alo = cell.hi[n.axis],
+          ahi = cell.lo[n.axis];
+    extent(n.child[0], n.axis, blo, bhi);
+    extent(n.child[1], n.axis, alo, ahi);
+    Aabb lower = cell, upper = cell;
+    lower.hi[n.axis] = bhi;
+    upper.lo[n.axis] = alo;
+    assign_cells(n.child[0], lower, leaves);
+    assign_cells(n.child[1], upper, leaves);
+  }
+
+  void emit(int node, PointBuildOutput& out) {
+    const NeuralTopNode& n = top.nodes[static_cast<std::size_t>(node)];
+    if (n.leaf()) {
+      const PointBuildOutput& sub_tree = built[static_cast<std::size_t>(node)];
+      const auto offset = static_cast<std::uint32_t>(out.permutation.size());
+      const std::vector<std::uint32_t>& local = ids[static_cast<std::size_t>(node)];
+      for (PointNode p : sub_tree.nodes) {
+        if (p.is_leaf()) p.index += offset;  // interior indices are relative: unchanged
+        out.nodes.push_back(p);
+      }
+      for (const std::uint32_t i : sub_tree.permutation) out.permutation.push_back(local[i]);
+      return;
+    }
+    const std::size_t below = count(n.child[0]), above = count(n.child[1]);
+    if (below == 0 || above == 0) {
+      emit(below == 0 ? n.child[1] : n.child[0], out);
+      return;
+    }
+    const Aabb& lower = cells[static_cast<std::size_t>(n.child[0])];
+    const Aabb& upper = cells[static_cast<std::size_t>(n.child[1])];
+    PointNode interior;
+    interior.below_max = lower.hi[n.axis];
+    interior.above_min = upper.lo[n.axis];
+    interior.bits = static_cast<std::uint32_t>(n.axis);
+    const std::size_t self = out.nodes.size();
+    out.nodes.push_back(interior);
+    emit(n.child[0], out);
+    out.nodes[self].index = static_cast<std::uint32_t>(out.nodes.size() - self);
+    emit(n.child[1], out);
+  }
+};
+
+}  // namespace
+
+NeuralTop infer_point_top(const NeuralModel& model, std::span<const Vec3> points,
+                          const Aabb& bounds, const PointTreeConfig& config, float radius,
+                          double* sampling_ms) {
+  const Timer timer;
+  const std::vector<Vec3> samples = sample_points(points, static_cast<std::size_t>(model.points));
+  if (sampling_ms) *sampling_ms = timer.ms();
+  NeuralTopOptions options;
+  options.cost = NeuralCost::vvh;
+  options.traversal_cost = config.traversal_cost;
+  options.intersection_cost = config.point_cost;
+  options.radius = radius;
+  options.population = static_cast<double>(points.size());
+  return infer_neural_top(model, samples, bounds, options);
+}
+
+PointBuildOutput expand_point_top(std::span<const Vec3> points, const Aabb& bounds,
+                                  const NeuralTop& top, const PointTreeConfig& config,
+                                  float radius) {
+  Expander ex{points, top, config, radius, {}, {}, {}};
+  ex.sub.builder = config.expand.empty() ? "vvh" : config.expand;
+  if (ex.sub.builder == "neural") throw Error("--expand", "neural cannot expand its own top");
+  ex.ids.resize(top.nodes.size());
+  ex.built.resize(top.nodes.size());
+  ex.cells.resize(top.nodes.size());
+  // Population: every point to the one leaf cell on its side of every split (below: < split).
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    int node = 0;
+    while (!top.nodes[static_cast<std::size_t>(node)].leaf()) {
+      const NeuralTopNode& n = top.nodes[static_cast<std::size_t>(node)];
+      node = n.child[points[i][n.axis] < n.split ? 0 : 1];
+    }
+    ex.ids[static_cast<std::size_t>(node)].push_back(static_cast<std::uint32_t>(i));
+  }
+  std::vector<int> leaves;
+  ex.assign_cells(0, bounds, leaves);
+  tbb::parallel_for(std::size_t{0}, leaves.size(), [&](std::size_t k) {
+    const auto node = static_cast<std::size_t>(leaves[k]);
+    const std::vector<std::uint32_t>& ids = ex.ids[node];
+    if (ids.empty()) return;  // only a lone root cell can be empty, and points exist
+    std::vector<Vec3> subset;
+    subset.reserve(ids.size());
+    for (const std::uint32_t i : ids) subset.push_back(points[i]);
+    ex.built[node] = build_point_tree(subset, ex.cells[node], ex.sub, radius);
+  });
+  PointBuildOutput out;
+  out.nodes.reserve(4 * points.size() / std::max(1, config.leaf_size) + 16);
+  out.permutation.reserve(points.size());
+  ex.emit(0, out);
+  if (out.permutation.size() != points.size())
+    throw Error("--builder neural", "population lost points (internal error)");
+  // The query stack is fixed: the top's levels add to the expanded subtrees' depth.
+  std::vector<std::pair<std::uint32_t, int>> stack{{0u, 0}};
+  while (!stack.empty()) {
+    const auto [n, depth] = stack.back();
+    stack.pop_back();
+    if (depth > PointTree::kMaxDepth)
+      throw Error("--builder neural",
+                  "the tree is deeper than " + std::to_string(PointTree::kMaxDepth) + " levels");
+    if (out.nodes[n].is_leaf()) continue;
+    stack.emplace_back(n + 1, depth + 1);
+    stack.emplace_back(n + out.nodes[n].index, depth + 1);
+  }
+  return out;
+}
+
+NeuralPointBuild build_neural_point_tree(std::span<const Vec3> points, const Aabb& bounds,
+                                         const PointTreeConfig& config, float radius) {
+  const NeuralModel model = load_neural_model(config.model, NeuralCost::vvh);
+  NeuralPointBuild out;
+  out.top = infer_point_top(model, points, bounds, config, radius, &out.sampling_ms);
+  out.tree = expand_point_top(points, bounds, out.top, config, radius);
+  return out;
+}
+
+}  // namespace splitray
