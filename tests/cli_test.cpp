@@ -44,18 +44,21 @@ std::string read_text(const fs::path& path) {
 // A fresh folder for the current test (tests run in parallel under ctest).
 fs::path test_dir() {
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  return splitray::test::temp_dir(std::string("cli_") + info->test_suite_name() + "_" + info->name());
+  return splitray::test::temp_dir(std::string("cli_") + info->test_suite_name() + "_" +
+                                  info->name());
 }
 
 // Runs `splitray ARGS` with stdout and stderr captured in files under `dir`.
 Result run(const std::string& args, const fs::path& dir) {
   const fs::path out = dir / "stdout.txt", err = dir / "stderr.txt";
-  const std::string command =
-      quote(kBinary) + " " + args + " > " + quote(out.string()) + " 2> " + quote(err.string()) + " < /dev/null";
+  const std::string command = quote(kBinary) + " " + args + " > " + quote(out.string()) + " 2> " +
+                              quote(err.string()) + " < /dev/null";
   const int raw = std::system(command.c_str());
   Result result;
-  if (raw != -1 && WIFEXITED(raw)) result.status = WEXITSTATUS(raw);
-  else if (raw != -1 && WIFSIGNALED(raw)) result.status = 128 + WTERMSIG(raw);
+  if (raw != -1 && WIFEXITED(raw))
+    result.status = WEXITSTATUS(raw);
+  else if (raw != -1 && WIFSIGNALED(raw))
+    result.status = 128 + WTERMSIG(raw);
   result.out = read_text(out);
   result.err = read_text(err);
   fs::remove(out);
@@ -70,7 +73,8 @@ json run_json(const std::string& args, const fs::path& dir) {
     return json::parse(result.out);  // exactly one object: trailing text throws
   } catch (const std::exception& e) {
     ADD_FAILURE() << "splitray " << args << " --json printed no single JSON object: " << e.what()
-                  << "\n" << result.out;
+                  << "\n"
+                  << result.out;
     return json::object();
   }
 }
@@ -116,8 +120,9 @@ TEST_F(Cli, HelpForTheProgramAndEveryCommand) {
     EXPECT_NE(top.out.find(command), std::string::npos) << "--help does not list " << command;
 
   const std::vector<std::pair<std::string, std::vector<std::string>>> commands = {
-      {"render", {"--output", "--width", "--height", "--camera", "--accel", "--builder",
-                  "--threads", "--max-depth", "--json"}},
+      {"render",
+       {"--output", "--width", "--height", "--camera", "--accel", "--builder", "--threads",
+        "--max-depth", "--json"}},
       {"build", {"MESH", "--accel", "--builder", "--threads", "--kt", "--ki", "--bins", "--json"}},
       {"trace", {"MESH", "--accel", "--rays", "--kind", "--seed", "--camera", "--any", "--json"}},
       {"knn", {"INPUT", "--k", "--json"}},
@@ -167,6 +172,20 @@ TEST_F(Cli, MissingFileIsNamed) {
   EXPECT_FALSE(fs::exists(dir_ / "x.png"));
 }
 
+// A machine without a usable OpenGL 4.5 (here Mesa told to offer 3.3 only) gets a clear error
+// from the hybrid renderer, never a crash, and no output file.
+TEST_F(Cli, HybridWithoutOpenGl45IsAClearError) {
+  const fs::path png = dir_ / "hybrid.png";
+  ::setenv("MESA_GL_VERSION_OVERRIDE", "3.3", 1);
+  const Result result =
+      run("render " + quote(horse()) + " --mode hybrid -W 32 -H 24 -o " + quote(png.string()));
+  ::unsetenv("MESA_GL_VERSION_OVERRIDE");
+  EXPECT_EQ(result.status, 1) << result.err;
+  EXPECT_EQ(result.err.rfind("splitray: OpenGL (--mode hybrid): ", 0), 0u) << result.err;
+  EXPECT_NE(result.err.find("no usable OpenGL 4.5"), std::string::npos) << result.err;
+  EXPECT_FALSE(fs::exists(png));
+}
+
 TEST_F(Cli, HostileFilesFailCleanlyAndLeaveNoOutput) {
   const std::vector<std::pair<std::string, std::string>> files = {
       {"index_out_of_range.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n"},
@@ -212,13 +231,14 @@ TEST_F(Cli, RenderThatCannotWriteLeavesNoFile) {
                  "absent");
   // The output name is a folder.
   fs::create_directory(dir_ / "folder.png");
-  expect_failure("render " + quote(horse()) + " -W 16 -H 16 -o " + quote((dir_ / "folder.png").string()),
-                 "folder.png");
+  expect_failure(
+      "render " + quote(horse()) + " -W 16 -H 16 -o " + quote((dir_ / "folder.png").string()),
+      "folder.png");
   // The output folder is a file.
   std::ofstream(dir_ / "file") << "x";
-  expect_failure("render " + quote(horse()) + " -W 16 -H 16 -o " +
-                     quote((dir_ / "file" / "out.png").string()),
-                 "file");
+  expect_failure(
+      "render " + quote(horse()) + " -W 16 -H 16 -o " + quote((dir_ / "file" / "out.png").string()),
+      "file");
   EXPECT_EQ(leftovers(dir_, {"folder.png", "file"}), std::vector<std::string>{});
 }
 
@@ -230,7 +250,8 @@ void expect_png(const fs::path& path, int width, int height) {
   EXPECT_EQ(bytes.substr(12, 4), "IHDR") << path;
   const auto be32 = [&](std::size_t at) {
     std::uint32_t value = 0;
-    for (std::size_t i = 0; i < 4; ++i) value = value << 8 | static_cast<unsigned char>(bytes[at + i]);
+    for (std::size_t i = 0; i < 4; ++i)
+      value = value << 8 | static_cast<unsigned char>(bytes[at + i]);
     return value;
   };
   EXPECT_EQ(be32(16), static_cast<std::uint32_t>(width));
@@ -242,8 +263,8 @@ TEST_F(Cli, RenderWritesAPngOfTheRequestedSize) {
   const json summary =
       run_json("render " + quote(horse()) + " -W 64 -H 40 --max-depth 2 -o " + quote(png.string()));
   expect_png(png, 64, 40);
-  for (const std::string key : {"scene", "output", "width", "height", "triangles", "accel", "builder",
-                                "build_ms", "render_ms", "rays", "mrays_per_s"})
+  for (const std::string key : {"scene", "output", "width", "height", "triangles", "accel",
+                                "builder", "build_ms", "render_ms", "rays", "mrays_per_s"})
     EXPECT_TRUE(summary.contains(key)) << "render --json lacks " << key;
   EXPECT_EQ(summary.value("triangles", 0), 16843);
   EXPECT_GE(summary.value("rays", 0), 64 * 40);
@@ -252,8 +273,8 @@ TEST_F(Cli, RenderWritesAPngOfTheRequestedSize) {
 
   // The readable summary names the output file.
   const fs::path png2 = dir_ / "horse2.png";
-  const Result text = run("render " + quote(horse()) + " -W 20 -H 10 --camera 0,0.2,3,0,0,0,40 -o " +
-                          quote(png2.string()));
+  const Result text = run("render " + quote(horse()) +
+                          " -W 20 -H 10 --camera 0,0.2,3,0,0,0,40 -o " + quote(png2.string()));
   EXPECT_EQ(text.status, 0) << text.err;
   EXPECT_NE(text.out.find(png2.string()), std::string::npos) << text.out;
   expect_png(png2, 20, 10);
@@ -269,9 +290,9 @@ TEST_F(Cli, RenderOfTheDefaultScene) {
 TEST_F(Cli, BuildJsonHasEveryKey) {
   for (const std::string accel : {"kd", "brute"}) {
     const json stats = run_json("build " + quote(horse()) + " --accel " + accel);
-    for (const std::string key :
-         {"prims", "build_ms", "sah_cost", "nodes", "leaves", "empty_leaves", "max_depth",
-          "mean_leaf_depth", "mean_leaf_prims", "prim_refs", "bytes", "cost_evals", "accel", "builder"})
+    for (const std::string key : {"prims", "build_ms", "sah_cost", "nodes", "leaves",
+                                  "empty_leaves", "max_depth", "mean_leaf_depth", "mean_leaf_prims",
+                                  "prim_refs", "bytes", "cost_evals", "accel", "builder"})
       EXPECT_TRUE(stats.contains(key)) << "build --accel " << accel << " --json lacks " << key;
     EXPECT_EQ(stats.value("prims", 0), 16843);
     EXPECT_EQ(stats.value("accel", ""), accel);
@@ -300,15 +321,18 @@ void expect_same_hits(const fs::path& dir, const std::string& mesh, const std::s
 }
 
 TEST_F(Cli, TraceKdEqualsBruteOnTheVendoredHorse) {
-  const json primary = run_json("trace " + quote(horse()) + " --accel kd --kind primary --rays 20000");
-  for (const std::string key : {"rays", "hits", "sum_t", "id_checksum", "ms", "mrays_per_s", "build_ms"})
+  const json primary =
+      run_json("trace " + quote(horse()) + " --accel kd --kind primary --rays 20000");
+  for (const std::string key :
+       {"rays", "hits", "sum_t", "id_checksum", "ms", "mrays_per_s", "build_ms"})
     EXPECT_TRUE(primary.contains(key)) << "trace --json lacks " << key;
   EXPECT_EQ(primary.value("rays", 0), 20000);
   expect_same_hits(dir_, horse(), "--kind primary --rays 20000 --seed 3");
   expect_same_hits(dir_, horse(), "--kind random --rays 20000 --seed 4");
   expect_same_hits(dir_, horse(), "--kind diffuse --rays 2000 --seed 5");
   // Any hit: the same rays are occluded.
-  const json kd_any = run_json("trace " + quote(horse()) + " --accel kd --kind random --rays 2000 --any");
+  const json kd_any =
+      run_json("trace " + quote(horse()) + " --accel kd --kind random --rays 2000 --any");
   const json brute_any =
       run_json("trace " + quote(horse()) + " --accel brute --kind random --rays 2000 --any");
   EXPECT_GT(kd_any.value("hits", 0), 0);
