@@ -3,6 +3,7 @@
 // scene, size and camera, and exits cleanly; without a display it fails with a clear message.
 // Skipped with a message when xvfb-run or the built splitray is absent.
 #include <gtest/gtest.h>
+#include <stb/stb_image.h>
 #include <sys/wait.h>
 
 #include <cmath>
@@ -11,8 +12,6 @@
 #include <fstream>
 #include <sstream>
 #include <string>
-
-#include <stb/stb_image.h>
 
 #include "splitray/render/shapes.hpp"
 #include "test_data.hpp"
@@ -43,10 +42,13 @@ struct Result {
 // Runs a shell command with stdout and stderr into one log.
 Result run(const std::string& command, const fs::path& dir) {
   const fs::path log = dir / "log.txt";
-  const int raw = std::system((command + " > " + quote(log.string()) + " 2>&1 < /dev/null").c_str());
+  const int raw =
+      std::system((command + " > " + quote(log.string()) + " 2>&1 < /dev/null").c_str());
   Result r;
-  if (raw != -1 && WIFEXITED(raw)) r.status = WEXITSTATUS(raw);
-  else if (raw != -1 && WIFSIGNALED(raw)) r.status = 128 + WTERMSIG(raw);
+  if (raw != -1 && WIFEXITED(raw))
+    r.status = WEXITSTATUS(raw);
+  else if (raw != -1 && WIFSIGNALED(raw))
+    r.status = 128 + WTERMSIG(raw);
   r.output = read_text(log);
   return r;
 }
@@ -54,7 +56,8 @@ Result run(const std::string& command, const fs::path& dir) {
 void write_obj(const fs::path& path, const splitray::Mesh& mesh) {
   std::ofstream out(path);
   for (const auto& p : mesh.positions) out << "v " << p.x << ' ' << p.y << ' ' << p.z << '\n';
-  for (const auto& f : mesh.faces) out << "f " << f[0] + 1 << ' ' << f[1] + 1 << ' ' << f[2] + 1 << '\n';
+  for (const auto& f : mesh.faces)
+    out << "f " << f[0] + 1 << ' ' << f[1] + 1 << ' ' << f[2] + 1 << '\n';
 }
 
 // The vendored horse on a floor beside a mirror sphere, a point and a directional light, and a
@@ -127,8 +130,8 @@ TEST_F(ViewTest, ScreenshotMatchesHeadlessRender) {
   const fs::path scene = write_scene(dir_);
   const fs::path shot = dir_ / "view.png", headless = dir_ / "headless.png";
   const std::string size = " -W 160 -H 120 ";
-  const Result view = run("xvfb-run -a " + quote(kBinary) + " view " + quote(scene.string()) + size +
-                              "--exit-after 3 --screenshot " + quote(shot.string()),
+  const Result view = run("xvfb-run -a " + quote(kBinary) + " view " + quote(scene.string()) +
+                              size + "--exit-after 3 --screenshot " + quote(shot.string()),
                           dir_);
   const Result render = run(quote(kBinary) + " render " + quote(scene.string()) + size +
                                 "--mode hybrid -o " + quote(headless.string()),
@@ -149,19 +152,36 @@ TEST_F(ViewTest, ScreenshotMatchesHeadlessRender) {
   // Not a blank frame: the picture has the floor, the horse and the sky in it.
   std::size_t distinct = 0;
   for (std::size_t i = 3; i < a.rgb.size(); i += 3)
-    distinct += a.rgb[i] != a.rgb[i - 3] || a.rgb[i + 1] != a.rgb[i - 2] || a.rgb[i + 2] != a.rgb[i - 1];
+    distinct +=
+        a.rgb[i] != a.rgb[i - 3] || a.rgb[i + 1] != a.rgb[i - 2] || a.rgb[i + 2] != a.rgb[i - 1];
   EXPECT_GT(distinct, a.rgb.size() / 3 / 10);
 }
 
 TEST_F(ViewTest, SequentialWithoutRefinementStillRuns) {
   const fs::path scene = write_scene(dir_);
   const fs::path shot = dir_ / "view.png";
-  const Result view = run("xvfb-run -a " + quote(kBinary) + " view " + quote(scene.string()) +
-                              " -W 96 -H 72 --sequential --no-refine --no-reflections --exit-after 2 "
-                              "--screenshot " + quote(shot.string()),
-                          dir_);
+  const Result view =
+      run("xvfb-run -a " + quote(kBinary) + " view " + quote(scene.string()) +
+              " -W 96 -H 72 --sequential --no-refine --no-reflections --exit-after 2 "
+              "--screenshot " +
+              quote(shot.string()),
+          dir_);
   ASSERT_EQ(view.status, 0) << view.output;
   EXPECT_EQ(read_png(shot).width, 96);
+}
+
+// --frames plays a real animation with predicted kd rebuilds every frame.
+TEST_F(ViewTest, PlaysAnAnimationWithPredictedRebuilds) {
+  SPLITRAY_REQUIRE_SHARED(first, "anim_horse_collapse/frames/horse-collapse-01.obj.gz");
+  const std::string frames = fs::path(first).parent_path().string() + "/horse-collapse-%02d.obj.gz";
+  const fs::path shot = dir_ / "view.png";
+  const Result view = run("xvfb-run -a " + quote(kBinary) + " view --frames " + quote(frames) +
+                              " -W 96 -H 72 --exit-after 4 --screenshot " + quote(shot.string()),
+                          dir_);
+  ASSERT_EQ(view.status, 0) << view.output;
+  const Png png = read_png(shot);
+  EXPECT_EQ(png.width, 96);
+  EXPECT_EQ(png.height, 72);
 }
 
 TEST_F(ViewTest, NoDisplayIsAClearError) {
