@@ -33,13 +33,7 @@ std::string fixture(const std::string& name) {
   return (test::source_dir() / "tests" / "fixtures" / name).string();
 }
 
-std::string read_text(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
+using splitray::test::read_text;
 std::string write(const fs::path& dir, const std::string& name, const std::string& bytes) {
   const fs::path path = dir / name;
   std::ofstream(path, std::ios::binary) << bytes;

@@ -1,6 +1,8 @@
 #include "test_data.hpp"
 
 #include <cstdlib>
+#include <fstream>
+#include <sstream>
 
 namespace splitray::test {
 
@@ -19,13 +21,28 @@ std::string shared_file(const std::string& relative) {
   return std::filesystem::exists(path) ? path.string() : std::string{};
 }
 
-std::string vendored_file(const std::string& relative) { return (source_dir() / "data" / relative).string(); }
+std::string vendored_file(const std::string& relative) {
+  return (source_dir() / "data" / relative).string();
+}
 
 std::filesystem::path temp_dir(const std::string& name) {
   const auto dir = std::filesystem::path(SPLITRAY_BINARY_DIR) / "test-tmp" / name;
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;
+}
+
+std::string read_text(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+std::string quote(const std::string& text) {
+  std::string quoted = "'";
+  for (const char c : text) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return quoted + "'";
 }
 
 }  // namespace splitray::test

@@ -16,10 +16,14 @@ std::string shared_file(const std::string& relative);
 std::string vendored_file(const std::string& relative);  // under data/
 // A fresh temporary folder for one test.
 std::filesystem::path temp_dir(const std::string& name);
+// The whole file as bytes (empty when it cannot be read).
+std::string read_text(const std::filesystem::path& path);
+// TEXT in single quotes for /bin/sh.
+std::string quote(const std::string& text);
 
 }  // namespace splitray::test
 
 // Skips the current test, naming what is missing, when a shared data file is absent.
-#define SPLITRAY_REQUIRE_SHARED(var, relative)                                           \
-  const std::string var = ::splitray::test::shared_file(relative);                      \
+#define SPLITRAY_REQUIRE_SHARED(var, relative)                     \
+  const std::string var = ::splitray::test::shared_file(relative); \
   if (var.empty()) GTEST_SKIP() << "shared data file " << (relative) << " is absent; skipped"

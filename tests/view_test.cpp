@@ -21,19 +21,8 @@ namespace {
 namespace fs = std::filesystem;
 const std::string kBinary = SPLITRAY_BINARY_DIR "/apps/splitray/splitray";
 
-std::string quote(const std::string& text) {
-  std::string quoted = "'";
-  for (const char c : text) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return quoted + "'";
-}
-
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
+using splitray::test::quote;
+using splitray::test::read_text;
 struct Result {
   int status = -1;  // exit code; 128 + signal when killed
   std::string output;
