@@ -382,7 +382,8 @@ TEST(NeuralAccel, BadModelsAndExpandersAreClearErrors) {
 
 TEST(NeuralAccel, DefaultModelsAreFoundThroughTheModelDir) {
   const std::filesystem::path dir = temp_dir("neural-model-dir");
-  write_neural_model(random_model(NeuralCost::sah, 4, NeuralPooling::max, 42), (dir / "sah.bin").string());
+  write_neural_model(random_model(NeuralCost::sah, 4, NeuralPooling::max, 42),
+                     (dir / "sah.bin").string());
   const char* old = std::getenv("SPLITRAY_MODEL_DIR");
   const std::string saved = old ? old : "";
   ::setenv("SPLITRAY_MODEL_DIR", dir.c_str(), 1);
@@ -483,6 +484,32 @@ TEST(NeuralPointTree, TinyAndDegenerateInputsEqualBruteForce) {
     const int k = static_cast<int>(std::min<std::size_t>(5, points.size()));
     expect_same_knn(brute_force_knn(points, queries, k), tree.knn(queries, k), "degenerate");
   }
+}
+
+// The SHIPPED weights (models/, trained by splitray-train), not random ones: their tops,
+// expanded, answer exactly like brute force (kd and BVH on two meshes, k-NN on points).
+TEST(ShippedModels, TopsFromTheShippedWeightsAnswerLikeBrute) {
+  const std::string dir = std::string(SPLITRAY_SOURCE_DIR) + "/models/";
+  ASSERT_TRUE(std::ifstream(dir + "sah.bin").good()) << dir << "sah.bin is not shipped";
+  ASSERT_TRUE(std::ifstream(dir + "vvh.bin").good()) << dir << "vvh.bin is not shipped";
+  EXPECT_EQ(read_neural_model(dir + "sah.bin").depth(), 6);
+  EXPECT_EQ(read_neural_model(dir + "vvh.bin").depth(), 5);
+  for (const std::string mesh : {"horse/horse.obj.gz", "dragon_100k/dragon.obj.gz"}) {
+    const Reference& ref = reference(vendored_file(mesh), 6000);
+    expect_neural_matches_brute(ref, "kd", "sah", dir + "sah.bin", mesh + " shipped");
+    expect_neural_matches_brute(ref, "bvh", "binned", dir + "sah.bin", mesh + " shipped");
+  }
+  const Mesh mesh = load_mesh(vendored_file("dragon_100k/dragon.obj.gz"));
+  const std::vector<Vec3> points = sample_surface(mesh, 50000, 3, kPointStream);
+  const std::vector<Vec3> queries = sample_surface(mesh, 1000, 3, kQueryStream);
+  PointTreeConfig config;
+  config.builder = "neural";
+  config.model = dir + "vvh.bin";
+  const PointTree tree(points, config);
+  EXPECT_GT(tree.stats().top_depth, 0);
+  for (const int k : {1, 8})
+    expect_same_knn(brute_force_knn(points, queries, k), tree.knn(queries, k),
+                    "shipped vvh k=" + std::to_string(k));
 }
 
 }  // namespace

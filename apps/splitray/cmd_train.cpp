@@ -67,6 +67,7 @@ void add_train_command(CLI::App& app) {
       "--samples M --data FILES... --out models/NAME.bin [--epochs E --batch B --lr LR]. Runs "
       "the splitray-train program (built only where libtorch is installed) with these arguments");
   sub->prefix_command();  // pass every argument, --help included, through to splitray-train
+  sub->set_help_flag();   // so that --help reaches splitray-train's own, complete help
   sub->callback([sub, args] {
     *args = sub->remaining();
     run(*args);
