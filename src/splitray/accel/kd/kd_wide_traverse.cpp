@@ -209,6 +209,7 @@ template bool KdAccel::traverse_wide<true>(const Ray&, const KdRaySetup&, Hit&) 
 template <bool kAnyHit>
 void KdAccel::walk_interleaved(const Ray* rays, const std::uint32_t* which, std::size_t n,
                                Hit* hits, std::uint8_t* occluded) const {
+  if (!interleave_) return walk_each<kAnyHit>(rays, which, n, hits, occluded);
   constexpr int kWalks = 8;  // enough walks in flight to hide a load's latency
   using Walk = WideWalk<kAnyHit, true>;
   const WideView view = wide_view();
@@ -271,13 +272,7 @@ template void KdAccel::walk_interleaved<true>(const Ray*, const std::uint32_t*, 
 template <bool kAnyHit>
 void KdAccel::walk_interleaved(const Ray* rays, const std::uint32_t* which, std::size_t n,
                                Hit* hits, std::uint8_t* occluded) const {
-  for (std::size_t k = 0; k < n; ++k) {
-    const std::uint32_t i = which[k];
-    if constexpr (kAnyHit)
-      occluded[i] = KdAccel::occluded(rays[i]) ? 1 : 0;
-    else
-      hits[i] = KdAccel::intersect(rays[i]);
-  }
+  walk_each<kAnyHit>(rays, which, n, hits, occluded);
 }
 
 template void KdAccel::walk_interleaved<false>(const Ray*, const std::uint32_t*, std::size_t, Hit*,
@@ -286,5 +281,17 @@ template void KdAccel::walk_interleaved<true>(const Ray*, const std::uint32_t*, 
                                               std::uint8_t*) const;
 
 #endif
+
+template <bool kAnyHit>
+void KdAccel::walk_each(const Ray* rays, const std::uint32_t* which, std::size_t n, Hit* hits,
+                        std::uint8_t* occluded) const {
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::uint32_t i = which[k];
+    if constexpr (kAnyHit)
+      occluded[i] = KdAccel::occluded(rays[i]) ? 1 : 0;
+    else
+      hits[i] = KdAccel::intersect(rays[i]);
+  }
+}
 
 }  // namespace splitray
