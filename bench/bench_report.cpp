@@ -78,13 +78,14 @@ std::string markdown_report(const Json& report) {
   out += fmt::format(
       "Measured {} on {} ({} threads of {}), {}, Embree {}; load average {:.1f} at the start, "
       "{:.1f} at the end. Medians of {} runs after a warm-up; {} rays per kind (seed {}), the "
-      "same rays for every structure.\n\n",
+      "same rays for every structure; SAH constants K_T = {}, K_I = {}.\n\n",
       machine["date_utc"].get<std::string>(), machine["cpu"].get<std::string>(),
       machine["threads"].get<int>(), machine["hardware_threads"].get<int>(),
       machine["compiler"].get<std::string>(), machine["embree"].get<std::string>(),
       machine["load_average_start"].get<double>(), machine.value("load_average_end", -1.0),
       settings["runs"].get<int>(), settings["rays_per_kind"].get<std::uint64_t>(),
-      settings["seed"].get<std::uint64_t>());
+      settings["seed"].get<std::uint64_t>(), settings.value("traversal_cost", 15.0),
+      settings.value("intersection_cost", 20.0));
   out +=
       "Ratios (×) are to **Embree medium** (its default build quality) on the same mesh in the "
       "same run: build time (lower is better) and throughput (higher is better). *1-ray*: the "

@@ -104,6 +104,8 @@ Json measure(const Structure& s, std::span<const Triangle> triangles, std::vecto
   BuildConfig config;
   config.builder = s.builder;
   config.threads = options.threads;
+  config.traversal_cost = options.traversal_cost;
+  config.intersection_cost = options.intersection_cost;
   Json row{{"accel", s.accel}, {"builder", s.builder}};
   std::unique_ptr<Accel> accel;
   std::vector<double> build_ms, wall_ms;
@@ -201,6 +203,13 @@ void add_build_trace_options(CLI::App& command, BuildTraceOptions& options) {
   command.add_option("--threads", options.threads, "Worker threads (0 = all cores)")
       ->check(CLI::NonNegativeNumber);
   command.add_option("--seed", options.seed, "Seed of the ray sets");
+  command.add_option("--kt", options.traversal_cost, "SAH cost of traversing a node (K_T)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  command
+      .add_option("--ki", options.intersection_cost, "SAH cost of intersecting a triangle (K_I)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   command.add_option("--json", options.json_path, "Write the full report as JSON to this file");
   command.add_option("--markdown", options.markdown_path,
                      "Write the Markdown tables to this file (default: print them)");
@@ -223,6 +232,8 @@ Json run_build_trace(const BuildTraceOptions& options) {
   report["settings"] = {{"runs", runs},
                         {"rays_per_kind", ray_count},
                         {"seed", options.seed},
+                        {"traversal_cost", options.traversal_cost},
+                        {"intersection_cost", options.intersection_cost},
                         {"kinds", {"primary", "diffuse"}},
                         {"ratios_to", "embree medium (same mesh, same run, same rays)"},
                         {"checksum_reference", "kd sah"},

@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "splitray/accel/accel.hpp"
+
 namespace splitray::bench {
 
 struct BuildTraceOptions {
@@ -20,6 +22,9 @@ struct BuildTraceOptions {
   bool quick = false;  // smoke test: 2 vendored meshes, 1 run, 64k rays
   int threads = 0;     // 0 = all cores
   std::uint64_t seed = 1;
+  // SAH constants of the kd builds (and of every tree's reported SAH cost).
+  float traversal_cost = BuildConfig{}.traversal_cost;
+  float intersection_cost = BuildConfig{}.intersection_cost;
   std::string json_path, markdown_path;
 };
 

@@ -127,6 +127,7 @@ KdAccel::KdAccel(KdTree tree, std::span<const Triangle> triangles, const BuildCo
   stats_.prims = triangles.size();
   stats_.bytes += leaf_triangles_.bytes();
   stats_.cost_evals = cost_evals;
+  interleave_ = stats_.bytes > kInterleaveBytes;
   stats_.build_ms = build_timer.ms();
 }
 

@@ -5,6 +5,8 @@
 // traversal would, tests the same leaves with the same exact triangle test and skips a far
 // cell under the same rule, so every ray's hit is the one intersect(ray) returns.
 #include <cmath>
+#include <limits>
+#include <optional>
 
 #include "splitray/accel/kd/kd_accel.hpp"
 #include "splitray/accel/kd/kd_ray_setup.hpp"
@@ -36,39 +38,63 @@ bool KdAccel::intersect_packet(const Ray* rays, Hit* hits) const {
   for (int l = 1; l < kLanes; ++l)
     for (int a = 0; a < 3; ++a)
       if (std::signbit(rays[l].dir[a]) != std::signbit(rays[0].dir[a])) return false;
-  KdRaySetup setup[kLanes];
-  unsigned active = 0;
-  for (int l = 0; l < kLanes; ++l) {
-    const Ray& ray = rays[l];
-    if (!(ray.tmin <= ray.tmax) || !KdRaySetup::traversable(ray)) return false;
-    setup[l] = KdRaySetup(ray, tree_.bounds, coord_scale_);
-    for (int a = 0; a < 3; ++a)
-      if ((setup[l].inv[a] < 0) != (setup[0].inv[a] < 0)) return false;
-    if (setup[l].t0 <= setup[l].t1) active |= 1u << l;
-  }
+  for (int l = 0; l < kLanes; ++l)
+    if (!(rays[l].tmin <= rays[l].tmax) || !KdRaySetup::traversable(rays[l])) return false;
 
-  alignas(32) float lane_org[3][kLanes], lane_inv[3][kLanes], lane_pad[3][kLanes];
-  alignas(32) float lane_t0[kLanes], lane_t1[kLanes], hit_t[kLanes];
-  Hit hit[kLanes];
+  // KdRaySetup for the 8 rays at once: lane by lane the same float operations in the same
+  // order (min/max and blends are exact; _mm256_min_ps(x, y) is x < y ? x : y, so
+  // std::min(a, b) is _mm256_min_ps(b, a)), hence the same intervals as the single-ray call.
+  alignas(32) float lane[8][kLanes];  // org xyz, dir xyz, tmin, tmax
   for (int l = 0; l < kLanes; ++l) {
-    for (int a = 0; a < 3; ++a) {
-      lane_org[a][l] = setup[l].org[a];
-      lane_inv[a][l] = setup[l].inv[a];
-      lane_pad[a][l] = setup[l].pad[a];
-    }
-    lane_t0[l] = setup[l].t0;
-    lane_t1[l] = setup[l].t1;
-    hit[l].t = hit_t[l] = rays[l].tmax;
+    for (int a = 0; a < 3; ++a) lane[a][l] = rays[l].org[a], lane[3 + a][l] = rays[l].dir[a];
+    lane[6][l] = rays[l].tmin;
+    lane[7][l] = rays[l].tmax;
   }
-  __m256 org[3], inv[3], pad[3];
+  const __m256 sign_bit = _mm256_set1_ps(-0.0f);
+  const auto fabs8 = [&](__m256 x) { return _mm256_andnot_ps(sign_bit, x); };
+  __m256 org[3], dir[3], inv[3], pad[3];
+  for (int a = 0; a < 3; ++a)
+    org[a] = _mm256_load_ps(lane[a]), dir[a] = _mm256_load_ps(lane[3 + a]);
+  const __m256 max_dir = _mm256_max_ps(_mm256_max_ps(fabs8(dir[2]), fabs8(dir[1])), fabs8(dir[0]));
+  const __m256 tiny = _mm256_max_ps(_mm256_set1_ps(std::numeric_limits<float>::min()),
+                                    _mm256_mul_ps(max_dir, _mm256_set1_ps(0x1p-40f)));
+  __m256 far[3];
+  for (int a = 0; a < 3; ++a) {
+    const __m256 to_lo = fabs8(_mm256_sub_ps(org[a], _mm256_set1_ps(tree_.bounds.lo[a])));
+    const __m256 to_hi = fabs8(_mm256_sub_ps(org[a], _mm256_set1_ps(tree_.bounds.hi[a])));
+    far[a] = _mm256_max_ps(to_hi, to_lo);
+  }
+  const __m256 delta = _mm256_mul_ps(
+      _mm256_set1_ps(0x1p-18f), _mm256_add_ps(_mm256_add_ps(_mm256_add_ps(far[0], far[1]), far[2]),
+                                              _mm256_set1_ps(coord_scale_)));
+  const __m256 pad_t = _mm256_div_ps(delta, max_dir);
+  __m256 t0 = _mm256_load_ps(lane[6]), t1 = _mm256_load_ps(lane[7]);
   bool below_first[3];
   for (int a = 0; a < 3; ++a) {
-    org[a] = _mm256_load_ps(lane_org[a]);
-    inv[a] = _mm256_load_ps(lane_inv[a]);
-    pad[a] = _mm256_load_ps(lane_pad[a]);
-    below_first[a] = !(setup[0].inv[a] < 0);
+    const __m256 small = _mm256_cmp_ps(fabs8(dir[a]), tiny, _CMP_LT_OQ);
+    const __m256 d =
+        _mm256_blendv_ps(dir[a], _mm256_or_ps(tiny, _mm256_and_ps(sign_bit, dir[a])), small);
+    inv[a] = _mm256_div_ps(_mm256_set1_ps(1.0f), d);
+    pad[a] = _mm256_add_ps(_mm256_mul_ps(delta, fabs8(inv[a])), pad_t);
+    const __m256 ta =
+        _mm256_mul_ps(_mm256_sub_ps(_mm256_set1_ps(tree_.bounds.lo[a]), org[a]), inv[a]);
+    const __m256 tb =
+        _mm256_mul_ps(_mm256_sub_ps(_mm256_set1_ps(tree_.bounds.hi[a]), org[a]), inv[a]);
+    const __m256 enter = _mm256_sub_ps(_mm256_min_ps(tb, ta), pad[a]);
+    const __m256 leave = _mm256_add_ps(_mm256_max_ps(tb, ta), pad[a]);
+    t0 = _mm256_max_ps(enter, t0);  // if (enter > t0) t0 = enter
+    t1 = _mm256_min_ps(leave, t1);  // if (leave < t1) t1 = leave
+    const unsigned negative = static_cast<unsigned>(
+        _mm256_movemask_ps(_mm256_cmp_ps(inv[a], _mm256_setzero_ps(), _CMP_LT_OQ)));
+    if (negative != 0 && negative != 0xffu) return false;
+    below_first[a] = negative == 0;
   }
-  __m256 t0 = _mm256_load_ps(lane_t0), t1 = _mm256_load_ps(lane_t1);
+  unsigned active = static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(t0, t1, _CMP_LE_OQ)));
+  alignas(32) float hit_t[kLanes];
+  Hit hit[kLanes];
+  for (int l = 0; l < kLanes; ++l) hit[l].t = hit_t[l] = rays[l].tmax;
+  // The leaf test's per-ray constants, made when a ray first reaches a leaf.
+  std::optional<WatertightRay> wray[kLanes];
 
   const KdNode* nodes = tree_.nodes.data();
   const std::uint32_t* ids = tree_.prim_ids.data();
@@ -78,6 +104,7 @@ bool KdAccel::intersect_packet(const Ray* rays, Hit* hits) const {
   while (active) {
     const KdNode node = nodes[index];
     if (!node.is_leaf()) {
+      __builtin_prefetch(nodes + node.above());  // in case the packet goes there next
       const int a = node.axis();
       // The single-ray step in every lane: t_split, its widened bounds, the children's ranges
       // (_mm256_min_ps(x, y) is x < y ? x : y, as the scalar code).
@@ -112,8 +139,9 @@ bool KdAccel::intersect_packet(const Ray* rays, Hit* hits) const {
       const float* rows = leaf_triangles_.leaf(begin);
       for (unsigned m = active; m; m &= m - 1) {
         const int l = __builtin_ctz(m);
-        intersect_leaf<false>(WatertightRay(rays[l]), rows, ids + begin, count, rays[l].tmin,
-                              rays[l].tmax, hit[l]);
+        if (!wray[l]) wray[l].emplace(rays[l]);
+        intersect_leaf<false>(*wray[l], rows, ids + begin, count, rays[l].tmin, rays[l].tmax,
+                              hit[l]);
         hit_t[l] = hit[l].t;
       }
     }

@@ -1,6 +1,8 @@
 #pragma once
 // Per-ray constants of the kd traversal (kd_traverse.cpp explains the widening), shared by the
-// single-ray and the packet traversal so that both clip every ray identically.
+// single-ray and the packet traversal so that both clip every ray identically. The packet
+// traversal (kd_packet.cpp) repeats these float operations lane by lane in SIMD: change both
+// together.
 #include <algorithm>
 #include <cmath>
 #include <limits>

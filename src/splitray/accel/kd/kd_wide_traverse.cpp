@@ -28,7 +28,7 @@ struct CellEntry {
 
 constexpr int kStackSize = 7 * KdAccel::kWideDepthLimit + 1;
 
-template <bool kAnyHit>
+template <bool kAnyHit, bool kInterleaved>
 class WideWalk {
  public:
   // `hit.t` must hold ray.tmax.
@@ -48,14 +48,27 @@ class WideWalk {
   bool result() const { return result_; }
 
   // Visits one node or leaf; true when the walk is over (then result() is the answer).
+  // Interleaved walks (kInterleaved) prefetch what they visit next before yielding, and visit
+  // a leaf in two steps (its range, then its triangles), so that the other walks' steps hide
+  // the latency of each load.
   bool step() {
     if (ref_ == KdWideTree::kEmpty) return finish(false);
     if (!(ref_ & KdWideTree::kLeafRef)) {
-      if (enter(view_.nodes[ref_])) return false;
+      if (enter(view_.nodes[ref_])) return next();
     } else {
-      const KdWideLeaf& leaf = view_.leaves[ref_ & ~KdWideTree::kLeafRef];
-      if (intersect_leaf<kAnyHit>(wray_, view_.rows->leaf(leaf.first), view_.ids + leaf.first,
-                                  leaf.count, tmin_, tmax_, hit_) &&
+      if (kInterleaved && !leaf_ready_) {
+        leaf_ = view_.leaves[ref_ & ~KdWideTree::kLeafRef];
+        const char* rows = reinterpret_cast<const char*>(view_.rows->leaf(leaf_.first));
+        const char* end = rows + 9 * sizeof(float) * std::size_t{leaf_.count};
+        for (const char* line = rows; line < end && line < rows + 8 * 64; line += 64)
+          _mm_prefetch(line, _MM_HINT_T0);
+        leaf_ready_ = true;
+        return false;
+      }
+      if (!kInterleaved) leaf_ = view_.leaves[ref_ & ~KdWideTree::kLeafRef];
+      leaf_ready_ = false;
+      if (intersect_leaf<kAnyHit>(wray_, view_.rows->leaf(leaf_.first), view_.ids + leaf_.first,
+                                  leaf_.count, tmin_, tmax_, hit_) &&
           kAnyHit)
         return finish(true);
     }
@@ -65,13 +78,25 @@ class WideWalk {
         ref_ = entry.ref;
         t0_ = entry.t0;
         t1_ = entry.t1;
-        return false;
+        return next();
       }
     }
     return finish(!kAnyHit && hit_.found());
   }
 
  private:
+  // ref_ is set: prefetch it for the next step (interleaved walks), the walk goes on.
+  bool next() {
+    if constexpr (kInterleaved) {
+      if (ref_ & KdWideTree::kLeafRef)
+        _mm_prefetch(reinterpret_cast<const char*>(view_.leaves + (ref_ & ~KdWideTree::kLeafRef)),
+                     _MM_HINT_T0);
+      else
+        _mm_prefetch(reinterpret_cast<const char*>(view_.nodes + ref_), _MM_HINT_T0);
+    }
+    return false;
+  }
+
   bool finish(bool result) {
     result_ = result;
     return true;
@@ -157,6 +182,8 @@ class WideWalk {
   float t0_, t1_;
   int top_ = 0;
   bool result_ = false;
+  bool leaf_ready_ = false;  // interleaved: leaf_ holds the range of the leaf ref_
+  KdWideLeaf leaf_{};
   CellEntry stack_[kStackSize];
 };
 
@@ -170,7 +197,7 @@ KdAccel::WideView KdAccel::wide_view() const {
 template <bool kAnyHit>
 bool KdAccel::traverse_wide(const Ray& ray, const KdRaySetup& setup, Hit& hit) const {
   const WideView view = wide_view();
-  WideWalk<kAnyHit> walk(view, ray, setup, hit);
+  WideWalk<kAnyHit, false> walk(view, ray, setup, hit);
   while (!walk.step()) {
   }
   return walk.result();
@@ -182,8 +209,9 @@ template bool KdAccel::traverse_wide<true>(const Ray&, const KdRaySetup&, Hit&) 
 template <bool kAnyHit>
 void KdAccel::walk_interleaved(const Ray* rays, const std::uint32_t* which, std::size_t n,
                                Hit* hits, std::uint8_t* occluded) const {
-  constexpr int kWalks = 4;
-  using Walk = WideWalk<kAnyHit>;
+  if (!interleave_) return walk_each<kAnyHit>(rays, which, n, hits, occluded);
+  constexpr int kWalks = 8;  // enough walks in flight to hide a load's latency
+  using Walk = WideWalk<kAnyHit, true>;
   const WideView view = wide_view();
   alignas(Walk) unsigned char storage[kWalks][sizeof(Walk)];
   Walk* walks[kWalks] = {};
@@ -244,13 +272,7 @@ template void KdAccel::walk_interleaved<true>(const Ray*, const std::uint32_t*, 
 template <bool kAnyHit>
 void KdAccel::walk_interleaved(const Ray* rays, const std::uint32_t* which, std::size_t n,
                                Hit* hits, std::uint8_t* occluded) const {
-  for (std::size_t k = 0; k < n; ++k) {
-    const std::uint32_t i = which[k];
-    if constexpr (kAnyHit)
-      occluded[i] = KdAccel::occluded(rays[i]) ? 1 : 0;
-    else
-      hits[i] = KdAccel::intersect(rays[i]);
-  }
+  walk_each<kAnyHit>(rays, which, n, hits, occluded);
 }
 
 template void KdAccel::walk_interleaved<false>(const Ray*, const std::uint32_t*, std::size_t, Hit*,
@@ -259,5 +281,17 @@ template void KdAccel::walk_interleaved<true>(const Ray*, const std::uint32_t*, 
                                               std::uint8_t*) const;
 
 #endif
+
+template <bool kAnyHit>
+void KdAccel::walk_each(const Ray* rays, const std::uint32_t* which, std::size_t n, Hit* hits,
+                        std::uint8_t* occluded) const {
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::uint32_t i = which[k];
+    if constexpr (kAnyHit)
+      occluded[i] = KdAccel::occluded(rays[i]) ? 1 : 0;
+    else
+      hits[i] = KdAccel::intersect(rays[i]);
+  }
+}
 
 }  // namespace splitray
