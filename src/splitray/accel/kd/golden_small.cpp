@@ -33,7 +33,7 @@ enum : std::uint64_t { kEnd = 0, kPlane = 1, kStart = 2 };
 // same positions, counts, costs and ties as exhaustive_search_axis over three sorted lists,
 // with one sort and no three-way merge (small nodes are most of a kd build's nodes).
 BinnedSplit find_small_split(std::span<const PrimRef> prims, const Aabb& cell,
-                             const KdSplitCost& cost, double* axis_costs, unsigned axes) {
+                             const KdSplitCost& cost, double* axis_costs) {
   const std::size_t n = prims.size();
   constexpr std::size_t kStack = 64;
   std::array<std::uint64_t, 2 * kStack> stack_keys;
@@ -49,7 +49,7 @@ BinnedSplit find_small_split(std::span<const PrimRef> prims, const Aabb& cell,
     for (int a = 0; a < 3; ++a) axis_costs[a] = std::numeric_limits<double>::infinity();
   for (int a = 0; a < 3; ++a) {
     const float cell_lo = cell.lo[a], cell_hi = cell.hi[a];
-    if (!((axes >> a) & 1u) || !(cell_lo < cell_hi)) continue;
+    if (!(cell_lo < cell_hi)) continue;
     std::size_t m = 0;
     for (const PrimRef& r : prims) {
       const float lo = r.bounds.lo[a], hi = r.bounds.hi[a];

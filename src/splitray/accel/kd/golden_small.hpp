@@ -30,10 +30,8 @@ void build_small_subtree(const SmallSubtree& build, std::span<const PrimRef> pri
 
 // The exact SAH minimum over the bounds of a few primitives (ties: lower axis, position),
 // in-plane primitives on their cheaper side. `axis_costs`, when given, receives each axis'
-// best cost (infinity where none). Only the axes in the bit mask `axes` are swept (predicted
-// rebuilds sweep the axis the previous frame chose).
+// best cost (infinity where none).
 BinnedSplit find_small_split(std::span<const PrimRef> prims, const Aabb& cell,
-                             const KdSplitCost& cost, double* axis_costs = nullptr,
-                             unsigned axes = 7);
+                             const KdSplitCost& cost, double* axis_costs = nullptr);
 
 }  // namespace splitray

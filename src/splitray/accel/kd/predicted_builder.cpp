@@ -7,7 +7,6 @@
 #include <cmath>
 
 #include "splitray/accel/kd/golden_build.hpp"
-#include "splitray/accel/kd/predicted_rebuild.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/core/parallel.hpp"
 #include "splitray/core/timer.hpp"
@@ -18,12 +17,7 @@ KdBuildResult build_kd_predicted(std::span<const Triangle> triangles, const Aabb
                                  const BuildConfig& config, const SplitPredictor* predictor,
                                  PredictedBuildStats& stats) {
   std::vector<GoldenNodeRecord> records;
-  // The first frame (nothing learnt yet) and --predictor none are golden's; later frames
-  // reuse what the last ones learnt (predicted_rebuild.hpp).
-  KdBuildResult result =
-      predictor && !predictor->shape().empty()
-          ? build_kd_rebuild(triangles, cell, config, *predictor, records)
-          : build_kd_golden_steered(triangles, cell, config, predictor, &records);
+  KdBuildResult result = build_kd_golden_steered(triangles, cell, config, predictor, &records);
   stats = PredictedBuildStats{};
   stats.cost_evals = result.cost_evals;
   stats.searched_nodes = records.size();
@@ -65,7 +59,6 @@ std::unique_ptr<KdAccel> make_kd_predicted(std::span<const Triangle> triangles,
   KdBuildResult built = build_kd_predicted(triangles, bounds, resolved, &predictor, stats);
   KdTree tree = take_kd_tree(built, bounds);
   predictor.update(stats.observations);
-  if (predictor.config().kind != PredictorKind::none) predictor.set_shape(kd_shape(tree));
   return std::make_unique<KdAccel>(std::move(tree), triangles, resolved, built.cost_evals, timer);
 }
 

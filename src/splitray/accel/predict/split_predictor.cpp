@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 
 #include "splitray/core/errors.hpp"
 
@@ -69,7 +68,6 @@ void SplitPredictor::clear() {
   tracks_.clear();
   keys_.clear();
   slots_.clear();
-  shape_.clear();
   live_ = 0;
 }
 
@@ -93,8 +91,7 @@ std::optional<SplitPrediction> SplitPredictor::predict(std::uint64_t path, int d
   // A split lies inside its cell: a prediction beyond it is no better than the nearest face.
   if (std::isfinite(p.fraction)) p.fraction = std::clamp(p.fraction, 0.0, 1.0);
   p.half_width = std::max(config_.sigmas * std::sqrt(variance), config_.min_half_width);
-  static const double mhw = std::getenv("MHW") ? std::atof(std::getenv("MHW")) : config_.max_half_width;
-  if (!(p.half_width <= mhw) || !std::isfinite(p.fraction)) return std::nullopt;
+  if (!(p.half_width <= config_.max_half_width) || !std::isfinite(p.fraction)) return std::nullopt;
   p.max_cost_ratio = t.cost_ratio * (1 + config_.cost_tolerance);
   p.check_axes = t.margin < config_.axis_margin || t.since_full + 1 >= config_.refresh_frames;
   return p;

@@ -8,7 +8,6 @@
 #include <optional>
 #include <span>
 #include <string>
-#include <utility>
 #include <variant>
 #include <vector>
 
@@ -38,8 +37,6 @@ struct PredictorConfig {
   double max_half_width = 0.2;   // wider than this, the prediction is not worth using
   double axis_margin = 0.03;     // trust the predicted axis when the others cost this much more
   int refresh_frames = 8;        // re-check the other axes of a node at least this often
-  // Nodes without a filter search this half width (of the cell) around last frame's split.
-  double shape_half_width = 0.1;
   // A predicted split whose cost (relative to the node's leaf cost) exceeds last frame's by
   // more than this share is a local minimum the bracket trapped: search fully instead.
   double cost_tolerance = 0.02;
@@ -64,18 +61,6 @@ struct SplitObservation {
   double cost_ratio = 0;              // split cost / leaf cost
 };
 
-// A node of the previous frame's tree, depth first (a node's below child follows it): its
-// split axis (kShapeLeaf for a leaf) and position, and the index of its above child, or a
-// leaf's size.
-// Builders that reuse last frame's shape at nodes too small to track (predicted_builder)
-// walk it alongside the new tree.
-struct ShapeNode {
-  static constexpr std::int32_t kShapeLeaf = -1;
-  std::int32_t axis = kShapeLeaf;
-  std::uint32_t value = 0;
-  float position = 0;
-};
-
 class SplitPredictor {
  public:
   explicit SplitPredictor(const PredictorConfig& config = {}) : config_(config) {}
@@ -88,11 +73,6 @@ class SplitPredictor {
   void update(std::span<const SplitObservation> observations);
   std::size_t tracked() const { return live_; }
   void clear();
-  // Frames seen by update().
-  std::uint64_t frame() const { return frame_; }
-  // Last frame's tree shape (empty before the first frame), set by the builder after update.
-  const std::vector<ShapeNode>& shape() const { return shape_; }
-  void set_shape(std::vector<ShapeNode> shape) { shape_ = std::move(shape); }
 
  private:
   struct Track {
@@ -117,7 +97,6 @@ class SplitPredictor {
   std::vector<std::uint32_t> slots_;
   std::size_t live_ = 0;
   std::uint64_t frame_ = 0;
-  std::vector<ShapeNode> shape_;
 };
 
 }  // namespace splitray
