@@ -239,7 +239,7 @@ TEST_F(EmbreeTest, MissesReportNoPrimitive) {
 
 TEST_F(EmbreeTest, EveryBuilderWorks) {
   const std::vector<std::string> builders = builder_names("embree");
-  EXPECT_EQ(builders, (std::vector<std::string>{"medium", "low", "high"}));
+  EXPECT_EQ(builders, (std::vector<std::string>{"medium", "low", "high", "refit"}));
   for (const std::string& builder : builders) {
     for (int threads : {1, 2}) {
       SCOPED_TRACE(builder + ", threads " + std::to_string(threads));

@@ -63,6 +63,20 @@ double mean_from(const std::vector<FrameRow>& rows, std::size_t first, double Fr
   return sum / static_cast<double>(rows.size() - first);
 }
 
+// The median over frames first.. of a per-frame ratio (0 when no frame has one): robust to
+// the load spikes of a shared machine, which the means are not.
+double median_ratio(const std::vector<FrameRow>& rows, std::size_t first,
+                    double FrameRow::*numerator, double FrameRow::*denominator) {
+  if (rows.size() <= first) first = 0;
+  std::vector<double> ratios;
+  for (std::size_t i = first; i < rows.size(); ++i)
+    if (rows[i].*denominator > 0) ratios.push_back(rows[i].*numerator / rows[i].*denominator);
+  if (ratios.empty()) return 0;
+  std::sort(ratios.begin(), ratios.end());
+  const std::size_t m = ratios.size() / 2;
+  return ratios.size() % 2 ? ratios[m] : 0.5 * (ratios[m - 1] + ratios[m]);
+}
+
 std::string optional_number(const std::optional<double>& v) {
   return v ? fmt::format("{:.9g}", *v) : "";
 }
@@ -168,20 +182,22 @@ void write_results(const std::string& path, const std::string& key, const Json& 
   write_file_atomically(path, all.dump(2) + "\n");
   std::string md =
       "| sequence / predictor | frames | triangles | full ms | predicted ms | sah ms | reduction | "
-      "sah_cost_ratio | trace_ratio | mean err | predicted nodes |\n"
-      "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+      "sah_cost_ratio | trace_ratio | median reduction | median trace_ratio | mean err | "
+      "predicted nodes |\n"
+      "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const auto& [name, r] : all["runs"].items()) {
     if (r.value("accel", "") == "embree") {  // one scene updated every frame: its time only
-      md += fmt::format("| {} | {} | {} | {:.1f} | | | | | | | |\n", name, r.value("frames", 0),
+      md += fmt::format("| {} | {} | {} | {:.1f} | | | | | | | | | |\n", name, r.value("frames", 0),
                         r.value("triangles", 0), r.value("mean_build_ms", 0.0));
       continue;
     }
     md += fmt::format(
-        "| {} | {} | {} | {:.1f} | {:.1f} | {:.1f} | {:.3f} | {:.4f} | {:.3f} | {:.4f} | {:.2f} "
-        "|\n",
+        "| {} | {} | {} | {:.1f} | {:.1f} | {:.1f} | {:.3f} | {:.4f} | {:.3f} | {:.3f} | {:.3f} | "
+        "{:.4f} | {:.2f} |\n",
         name, r.value("frames", 0), r.value("triangles", 0), r.value("mean_build_ms_full", 0.0),
         r.value("mean_build_ms_predicted", 0.0), r.value("mean_build_ms_sah", 0.0),
         r.value("reduction", 0.0), r.value("sah_cost_ratio", 0.0), r.value("trace_ratio", 0.0),
+        r.value("median_reduction", 0.0), r.value("median_trace_ratio", 0.0),
         r.value("mean_prediction_error", 0.0), r.value("predicted_node_share", 0.0));
   }
   fs::path md_path(path);
@@ -260,12 +276,20 @@ void run(AnimateCommand command) {
   for (std::size_t i = 0; i < frames.size(); ++i) {
     const std::vector<Triangle>& tris = frames[i];
     FrameRow& row = rows[i];
+    // Alternate which build runs first, as for the traces below, so that neither always
+    // inherits the other's caches and allocator state.
+    std::unique_ptr<Accel> full, predicted;
+    for (int turn = 0; turn < 2; ++turn) {
+      const Timer timer;
+      if ((turn == 0) == (i % 2 == 0)) {
+        full = make_kd(tris, base);
+        row.build_ms_full = timer.ms();
+      } else {
+        predicted = make_kd_predicted(tris, base, predictor, row.predicted);
+        row.build_ms_predicted = timer.ms();
+      }
+    }
     Timer timer;
-    const auto full = make_kd(tris, base);
-    row.build_ms_full = timer.ms();
-    timer.reset();
-    const auto predicted = make_kd_predicted(tris, base, predictor, row.predicted);
-    row.build_ms_predicted = timer.ms();
     if (base.builder == "sah") {
       row.build_ms_sah = row.build_ms_full;
     } else {
@@ -352,6 +376,10 @@ void run(AnimateCommand command) {
       {"reduction", full_ms > 0 ? 1 - predicted_ms / full_ms : 0},
       {"sah_cost_ratio", sah_ratio},
       {"trace_ratio", trace_ratio},
+      {"median_reduction",
+       1 - median_ratio(rows, 1, &FrameRow::build_ms_predicted, &FrameRow::build_ms_full)},
+      {"median_trace_ratio",
+       median_ratio(rows, 0, &FrameRow::trace_ms_full, &FrameRow::trace_ms_predicted)},
       {"predictor", command.predictor},
       {"builder", base.builder},
       {"mean_prediction_error", errors ? error_sum / static_cast<double>(errors) : 0},
