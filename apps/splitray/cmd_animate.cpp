@@ -186,8 +186,9 @@ void write_results(const std::string& path, const std::string& key, const Json& 
       "predicted nodes |\n"
       "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const auto& [name, r] : all["runs"].items()) {
-    if (r.value("accel", "") == "embree") {  // one scene updated every frame: its time only
-      md += fmt::format("| {} | {} | {} | {:.1f} | | | | | | | | | |\n", name, r.value("frames", 0),
+    if (r.value("accel", "") == "embree") {  // one scene updated every frame: its times only
+      md += fmt::format("| {} ({:.1f} Mrays/s) | {} | {} | {:.2f} | | | | | | | | | |\n", name,
+                        r.value("trace_mrays_per_s", 0.0), r.value("frames", 0),
                         r.value("triangles", 0), r.value("mean_build_ms", 0.0));
       continue;
     }
@@ -210,16 +211,25 @@ void write_results(const std::string& path, const std::string& key, const Json& 
 void run_embree(const AnimateCommand& command, const FrameSequence& sequence,
                 const std::vector<std::vector<Triangle>>& frames) {
   std::vector<double> ms;
+  double trace_total_ms = 0;  // primary rays per frame: what a refit costs in tracing speed
+  std::vector<Hit> hits;
   ProgressBar bar("animate");
   Timer timer;
   const auto scene = make_embree_scene(frames[0], command.accel.build);
   ms.push_back(timer.ms());
-  bar.update(1.0 / static_cast<double>(frames.size()));
-  for (std::size_t i = 1; i < frames.size(); ++i) {
-    ms.push_back(scene->update(frames[i]));
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    if (i > 0) ms.push_back(scene->update(frames[i]));
+    if (command.rays > 0) {
+      const std::vector<Ray> rays =
+          make_rays(frames[i], RayKind::primary, command.seed + i, command.rays);
+      trace_total_ms += trace_ms(*scene, rays, hits);
+    }
     bar.update(static_cast<double>(i + 1) / static_cast<double>(frames.size()));
   }
   bar.finish();
+  const double mrays = trace_total_ms > 0 ? static_cast<double>(command.rays * frames.size()) /
+                                                (trace_total_ms * 1e3)
+                                          : 0;
   double sum = 0;
   for (std::size_t i = ms.size() > 1 ? 1 : 0; i < ms.size(); ++i) sum += ms[i];
   const double mean = sum / static_cast<double>(ms.size() > 1 ? ms.size() - 1 : 1);
@@ -230,6 +240,8 @@ void run_embree(const AnimateCommand& command, const FrameSequence& sequence,
                         {"builder", builder},
                         {"mean_build_ms", mean},
                         {"first_build_ms", ms[0]},
+                        {"rays_per_frame", command.rays},
+                        {"trace_mrays_per_s", mrays},
                         {"threads", effective_threads(command.accel.build.threads)},
                         {"first_frame", sequence.label(0)},
                         {"build_ms", ms}};
