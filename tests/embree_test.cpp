@@ -239,7 +239,7 @@ TEST_F(EmbreeTest, MissesReportNoPrimitive) {
 
 TEST_F(EmbreeTest, EveryBuilderWorks) {
   const std::vector<std::string> builders = builder_names("embree");
-  EXPECT_EQ(builders, (std::vector<std::string>{"medium", "low", "high"}));
+  EXPECT_EQ(builders, (std::vector<std::string>{"medium", "low", "high", "refit"}));
   for (const std::string& builder : builders) {
     for (int threads : {1, 2}) {
       SCOPED_TRACE(builder + ", threads " + std::to_string(threads));
@@ -294,6 +294,50 @@ TEST(EmbreeBuild, DegenerateTrianglesAreHarmless) {
   const Hit hit = embree->intersect(Ray{{0, 0, 0}, {0, 0, 1}, 0, kInfinity});
   EXPECT_EQ(hit.prim, 2u);
   EXPECT_FLOAT_EQ(hit.t, 5.0f);
+}
+
+// An animation through one scene (`animate --accel embree`): after every update, refitted
+// or rebuilt, the scene answers as brute force does on that frame (the vendored horse, bent
+// a little more every frame).
+TEST(EmbreeScene, UpdatedSceneAgreesWithBruteOnEveryFrame) {
+  Aabb box;
+  for (const Triangle& t : horse()) box.extend(t.bounds());
+  const auto frame = [&](int f) {
+    const auto bend = [&](Vec3 p) {
+      const float s = (p[0] - box.lo[0]) / (box.hi[0] - box.lo[0]);
+      p[1] += 0.04f * f * std::sin(3.0f * s) * (box.hi[1] - box.lo[1]);
+      return p;
+    };
+    std::vector<Triangle> tris;
+    for (const Triangle& t : horse()) tris.push_back({bend(t.v0), bend(t.v1), bend(t.v2)});
+    return tris;
+  };
+  for (const char* builder : {"refit", "medium"}) {
+    BuildConfig config;
+    config.builder = builder;
+    const auto scene = make_embree_scene(frame(0), config);
+    for (int f = 1; f < 4; ++f) {
+      const std::vector<Triangle> tris = frame(f);
+      EXPECT_GE(scene->update(tris), 0.0);
+      const std::vector<Ray> rays = test_rays(tris, 2000, 20 + f);
+      const Agreement a = compare(trace(*make_accel("brute", tris), rays), trace(*scene, rays));
+      EXPECT_GE(a.fraction(), kMinAgreement) << builder << " frame " << f;
+      EXPECT_LE(a.t_mismatch, a.both_hit / 1000) << builder << " frame " << f;
+    }
+  }
+}
+
+TEST(EmbreeScene, ChangingTriangleCountIsRefused) {
+  BuildConfig config;
+  config.builder = "refit";
+  const auto scene = make_embree_scene(horse(), config);
+  const std::vector<Triangle> fewer(horse().begin(), horse().end() - 1);
+  try {
+    scene->update(fewer);
+    FAIL() << "a frame with another triangle count was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("triangle count"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

@@ -15,6 +15,7 @@
 #include "commands.hpp"
 #include "options.hpp"
 #include "progress.hpp"
+#include "splitray/accel/embree/embree_accel.hpp"
 #include "splitray/accel/kd/kd_accel.hpp"
 #include "splitray/accel/kd/predicted_builder.hpp"
 #include "splitray/core/errors.hpp"
@@ -60,6 +61,20 @@ double mean_from(const std::vector<FrameRow>& rows, std::size_t first, double Fr
   double sum = 0;
   for (std::size_t i = first; i < rows.size(); ++i) sum += rows[i].*field;
   return sum / static_cast<double>(rows.size() - first);
+}
+
+// The median over frames first.. of a per-frame ratio (0 when no frame has one): robust to
+// the load spikes of a shared machine, which the means are not.
+double median_ratio(const std::vector<FrameRow>& rows, std::size_t first,
+                    double FrameRow::*numerator, double FrameRow::*denominator) {
+  if (rows.size() <= first) first = 0;
+  std::vector<double> ratios;
+  for (std::size_t i = first; i < rows.size(); ++i)
+    if (rows[i].*denominator > 0) ratios.push_back(rows[i].*numerator / rows[i].*denominator);
+  if (ratios.empty()) return 0;
+  std::sort(ratios.begin(), ratios.end());
+  const std::size_t m = ratios.size() / 2;
+  return ratios.size() % 2 ? ratios[m] : 0.5 * (ratios[m - 1] + ratios[m]);
 }
 
 std::string optional_number(const std::optional<double>& v) {
@@ -167,15 +182,23 @@ void write_results(const std::string& path, const std::string& key, const Json& 
   write_file_atomically(path, all.dump(2) + "\n");
   std::string md =
       "| sequence / predictor | frames | triangles | full ms | predicted ms | sah ms | reduction | "
-      "sah_cost_ratio | trace_ratio | mean err | predicted nodes |\n"
-      "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+      "sah_cost_ratio | trace_ratio | median reduction | median trace_ratio | mean err | "
+      "predicted nodes |\n"
+      "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const auto& [name, r] : all["runs"].items()) {
+    if (r.value("accel", "") == "embree") {  // one scene updated every frame: its times only
+      md += fmt::format("| {} ({:.1f} Mrays/s) | {} | {} | {:.2f} | | | | | | | | | |\n", name,
+                        r.value("trace_mrays_per_s", 0.0), r.value("frames", 0),
+                        r.value("triangles", 0), r.value("mean_build_ms", 0.0));
+      continue;
+    }
     md += fmt::format(
-        "| {} | {} | {} | {:.1f} | {:.1f} | {:.1f} | {:.3f} | {:.4f} | {:.3f} | {:.4f} | {:.2f} "
-        "|\n",
+        "| {} | {} | {} | {:.1f} | {:.1f} | {:.1f} | {:.3f} | {:.4f} | {:.3f} | {:.3f} | {:.3f} | "
+        "{:.4f} | {:.2f} |\n",
         name, r.value("frames", 0), r.value("triangles", 0), r.value("mean_build_ms_full", 0.0),
         r.value("mean_build_ms_predicted", 0.0), r.value("mean_build_ms_sah", 0.0),
         r.value("reduction", 0.0), r.value("sah_cost_ratio", 0.0), r.value("trace_ratio", 0.0),
+        r.value("median_reduction", 0.0), r.value("median_trace_ratio", 0.0),
         r.value("mean_prediction_error", 0.0), r.value("predicted_node_share", 0.0));
   }
   fs::path md_path(path);
@@ -183,36 +206,57 @@ void write_results(const std::string& path, const std::string& key, const Json& 
   write_file_atomically(md_path.string(), md);
 }
 
-void run_embree(const AnimateCommand& command, const std::vector<std::vector<Triangle>>& frames) {
-  if (command.accel.build.builder == "refit")
-    throw Error("--accel embree --builder refit",
-                "Embree refitting is not implemented yet; use low|medium|high");
+// Embree as users drive it through an animation: one scene, its vertices updated and the
+// scene committed again every frame (a refit with --builder refit, else a rebuild).
+void run_embree(const AnimateCommand& command, const FrameSequence& sequence,
+                const std::vector<std::vector<Triangle>>& frames) {
   std::vector<double> ms;
+  double trace_total_ms = 0;  // primary rays per frame: what a refit costs in tracing speed
+  std::vector<Hit> hits;
   ProgressBar bar("animate");
+  Timer timer;
+  const auto scene = make_embree_scene(frames[0], command.accel.build);
+  ms.push_back(timer.ms());
   for (std::size_t i = 0; i < frames.size(); ++i) {
-    const Timer timer;
-    const auto accel = make_accel("embree", frames[i], command.accel.build);
-    ms.push_back(timer.ms());
-    bar.update(static_cast<double>(i + 1) / frames.size());
+    if (i > 0) ms.push_back(scene->update(frames[i]));
+    if (command.rays > 0) {
+      const std::vector<Ray> rays =
+          make_rays(frames[i], RayKind::primary, command.seed + i, command.rays);
+      trace_total_ms += trace_ms(*scene, rays, hits);
+    }
+    bar.update(static_cast<double>(i + 1) / static_cast<double>(frames.size()));
   }
   bar.finish();
+  const double mrays = trace_total_ms > 0 ? static_cast<double>(command.rays * frames.size()) /
+                                                (trace_total_ms * 1e3)
+                                          : 0;
   double sum = 0;
   for (std::size_t i = ms.size() > 1 ? 1 : 0; i < ms.size(); ++i) sum += ms[i];
   const double mean = sum / static_cast<double>(ms.size() > 1 ? ms.size() - 1 : 1);
+  const std::string builder = scene->stats().builder;
+  const Json summary = {{"frames", frames.size()},
+                        {"triangles", frames[0].size()},
+                        {"accel", "embree"},
+                        {"builder", builder},
+                        {"mean_build_ms", mean},
+                        {"first_build_ms", ms[0]},
+                        {"rays_per_frame", command.rays},
+                        {"trace_mrays_per_s", mrays},
+                        {"threads", effective_threads(command.accel.build.threads)},
+                        {"first_frame", sequence.label(0)},
+                        {"build_ms", ms}};
+  if (!command.results.empty())
+    write_results(command.results, sequence_name(command, sequence) + "/embree-" + builder,
+                  summary);
   if (command.json) {
-    print_json(
-        {{"frames", frames.size()},
-         {"triangles", frames[0].size()},
-         {"accel", "embree"},
-         {"builder", command.accel.build.builder.empty() ? "default" : command.accel.build.builder},
-         {"mean_build_ms", mean},
-         {"build_ms", ms}});
+    print_json(summary);
   } else {
     for (std::size_t i = 0; i < ms.size(); ++i)
       fmt::print("frame {:4d}  build_ms {:9.3f}\n", i, ms[i]);
-    print_table({{"frames", std::to_string(frames.size())},
-                 {"triangles", std::to_string(frames[0].size())},
-                 {"mean_build_ms (embree, frames 1..)", fmt::format("{:.3f}", mean)}});
+    print_table(
+        {{"frames", std::to_string(frames.size())},
+         {"triangles", std::to_string(frames[0].size())},
+         {"mean_build_ms (embree " + builder + ", frames 1..)", fmt::format("{:.3f}", mean)}});
   }
 }
 
@@ -226,7 +270,7 @@ void run(AnimateCommand command) {
     frames = load_frames(sequence, command.max_frames);
   }
   const ThreadLimit limit(command.accel.build.threads);
-  if (command.accel.accel == "embree") return run_embree(command, frames);
+  if (command.accel.accel == "embree") return run_embree(command, sequence, frames);
   if (command.accel.accel != "kd")
     throw Error("--accel " + command.accel.accel,
                 "animate rebuilds kd-trees (--accel kd) or Embree (--accel embree)");
@@ -244,12 +288,20 @@ void run(AnimateCommand command) {
   for (std::size_t i = 0; i < frames.size(); ++i) {
     const std::vector<Triangle>& tris = frames[i];
     FrameRow& row = rows[i];
+    // Alternate which build runs first, as for the traces below, so that neither always
+    // inherits the other's caches and allocator state.
+    std::unique_ptr<Accel> full, predicted;
+    for (int turn = 0; turn < 2; ++turn) {
+      const Timer timer;
+      if ((turn == 0) == (i % 2 == 0)) {
+        full = make_kd(tris, base);
+        row.build_ms_full = timer.ms();
+      } else {
+        predicted = make_kd_predicted(tris, base, predictor, row.predicted);
+        row.build_ms_predicted = timer.ms();
+      }
+    }
     Timer timer;
-    const auto full = make_kd(tris, base);
-    row.build_ms_full = timer.ms();
-    timer.reset();
-    const auto predicted = make_kd_predicted(tris, base, predictor, row.predicted);
-    row.build_ms_predicted = timer.ms();
     if (base.builder == "sah") {
       row.build_ms_sah = row.build_ms_full;
     } else {
@@ -336,6 +388,10 @@ void run(AnimateCommand command) {
       {"reduction", full_ms > 0 ? 1 - predicted_ms / full_ms : 0},
       {"sah_cost_ratio", sah_ratio},
       {"trace_ratio", trace_ratio},
+      {"median_reduction",
+       1 - median_ratio(rows, 1, &FrameRow::build_ms_predicted, &FrameRow::build_ms_full)},
+      {"median_trace_ratio",
+       median_ratio(rows, 0, &FrameRow::trace_ms_full, &FrameRow::trace_ms_predicted)},
       {"predictor", command.predictor},
       {"builder", base.builder},
       {"mean_prediction_error", errors ? error_sum / static_cast<double>(errors) : 0},

@@ -33,7 +33,7 @@ const std::map<std::string, Entry>& registry() {
   static const std::map<std::string, Entry> entries = {
       {"brute", {{"none"}, make_brute}},
       {"kd", {kd_builder_names(), make_or_neural<make_kd, make_neural_kd>, true}},
-      {"embree", {{"medium", "low", "high"}, make_embree}},
+      {"embree", {{"medium", "low", "high", "refit"}, make_embree}},
       {"bih", {{"global", "median", "middle", "sah"}, make_bih}},
       {"bvh", {{"binned", "sbvh"}, make_or_neural<make_bvh, make_neural_bvh>, true}},
   };

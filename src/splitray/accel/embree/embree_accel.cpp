@@ -15,12 +15,22 @@ namespace splitray {
 
 namespace {
 
-RTCBuildQuality parse_quality(const std::string& builder) {
-  if (builder == "low") return RTC_BUILD_QUALITY_LOW;
-  if (builder == "high") return RTC_BUILD_QUALITY_HIGH;
-  if (builder == "medium" || builder.empty()) return RTC_BUILD_QUALITY_MEDIUM;
-  throw Error("--builder",
-              "'" + builder + "' is not a builder of --accel embree (known: medium, low, high)");
+// Scene and geometry quality of a builder name; refit needs Embree's two-level LOW scene,
+// the only one that uses the geometry's REFIT quality.
+struct Quality {
+  RTCBuildQuality scene, geometry;
+  bool dynamic;
+};
+
+Quality parse_quality(const std::string& builder) {
+  if (builder == "low") return {RTC_BUILD_QUALITY_LOW, RTC_BUILD_QUALITY_LOW, false};
+  if (builder == "high") return {RTC_BUILD_QUALITY_HIGH, RTC_BUILD_QUALITY_HIGH, false};
+  if (builder == "medium" || builder.empty())
+    return {RTC_BUILD_QUALITY_MEDIUM, RTC_BUILD_QUALITY_MEDIUM, false};
+  if (builder == "refit") return {RTC_BUILD_QUALITY_LOW, RTC_BUILD_QUALITY_REFIT, true};
+  throw Error("--builder", "'" + builder +
+                               "' is not a builder of --accel embree (known: medium, low, high, "
+                               "refit)");
 }
 
 const char* error_name(RTCError code) {
@@ -87,10 +97,10 @@ Hit to_hit(const RTCRayHit& rayhit) {
   return hit;
 }
 
-class EmbreeAccel final : public Accel {
+class EmbreeAccel final : public EmbreeScene {
  public:
   EmbreeAccel(std::span<const Triangle> triangles, const BuildConfig& config) {
-    const RTCBuildQuality quality = parse_quality(config.builder);
+    const Quality quality = parse_quality(config.builder);
     const int threads = config.threads > 0 ? config.threads : hardware_threads();
     const std::string device_config = "threads=" + std::to_string(threads);
     device_.reset(rtcNewDevice(device_config.c_str()));
@@ -103,33 +113,25 @@ class EmbreeAccel final : public Accel {
     Timer timer;
     scene_.reset(rtcNewScene(device_.get()));
     check("creating the scene");
-    rtcSetSceneBuildQuality(scene_.get(), quality);
-    rtcSetSceneFlags(scene_.get(),
-                     RTC_SCENE_FLAG_NONE);  // not ROBUST: Embree's defaults, the yardstick
-    const std::unique_ptr<RTCGeometryTy, decltype(&rtcReleaseGeometry)> owner(
-        rtcNewGeometry(device_.get(), RTC_GEOMETRY_TYPE_TRIANGLE), rtcReleaseGeometry);
+    rtcSetSceneBuildQuality(scene_.get(), quality.scene);
+    // Not ROBUST: Embree's defaults, the yardstick.
+    rtcSetSceneFlags(scene_.get(), quality.dynamic ? RTC_SCENE_FLAG_DYNAMIC : RTC_SCENE_FLAG_NONE);
+    geometry_.reset(rtcNewGeometry(device_.get(), RTC_GEOMETRY_TYPE_TRIANGLE));
     check("creating the geometry");
-    RTCGeometry geometry = owner.get();
-    rtcSetGeometryBuildQuality(geometry, quality);
+    RTCGeometry geometry = geometry_.get();
+    rtcSetGeometryBuildQuality(geometry, quality.geometry);
     // A triangle soup: three vertices per triangle, indices 3i, 3i+1, 3i+2. Embree pads the
     // buffers it allocates itself, as its 16-byte vertex loads need.
     const std::size_t n = triangles.size();
     if (3 * n > 0xffffffffu) throw Error("embree", "too many triangles for 32-bit vertex indices");
-    auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(
+    vertices_ = static_cast<float*>(rtcSetNewGeometryBuffer(
         geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), 3 * n));
     auto* indices = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
         geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), n));
     check("creating the triangle buffers");
-    for (std::size_t i = 0; i < n; ++i) {
-      for (int k = 0; k < 3; ++k) {
-        const Vec3 p = triangles[i].vertex(k);
-        float* out = vertices + 9 * i + 3 * k;
-        out[0] = p.x;
-        out[1] = p.y;
-        out[2] = p.z;
-        indices[3 * i + k] = static_cast<unsigned>(3 * i + k);
-      }
-    }
+    prims_ = n;
+    write_vertices(triangles);
+    for (std::size_t i = 0; i < 3 * n; ++i) indices[i] = static_cast<unsigned>(i);
     rtcCommitGeometry(geometry);
     rtcAttachGeometry(scene_.get(), geometry);  // the scene keeps its own reference
     rtcCommitScene(scene_.get());
@@ -141,6 +143,21 @@ class EmbreeAccel final : public Accel {
     stats_.build_ms = timer.ms();
     stats_.bytes = static_cast<std::size_t>(std::max<std::int64_t>(0, state_.bytes.load()));
     // Embree does not expose its tree: node counts and SAH cost stay unknown (0 / nullopt).
+  }
+
+  double update(std::span<const Triangle> triangles) override {
+    if (triangles.size() != prims_)
+      throw Error("--accel embree", "a frame has " + std::to_string(triangles.size()) +
+                                        " triangles, the scene " + std::to_string(prims_) +
+                                        ": a deforming mesh keeps its triangle count");
+    const Timer timer;
+    write_vertices(triangles);
+    rtcUpdateGeometryBuffer(geometry_.get(), RTC_BUFFER_TYPE_VERTEX, 0);
+    rtcCommitGeometry(geometry_.get());
+    rtcCommitScene(scene_.get());
+    check("updating the scene");
+    stats_.build_ms = timer.ms();
+    return stats_.build_ms;
   }
 
   Hit intersect(const Ray& ray) const override {
@@ -241,6 +258,18 @@ class EmbreeAccel final : public Accel {
     for (std::size_t j = 0; j < rays.size(); ++j) result[j] = packet.tfar[j] < 0 ? 1 : 0;
   }
 
+  void write_vertices(std::span<const Triangle> triangles) {
+    for (std::size_t i = 0; i < triangles.size(); ++i) {
+      for (int k = 0; k < 3; ++k) {
+        const Vec3 p = triangles[i].vertex(k);
+        float* out = vertices_ + 9 * i + 3 * k;
+        out[0] = p.x;
+        out[1] = p.y;
+        out[2] = p.z;
+      }
+    }
+  }
+
   void check(const char* what) {
     const std::lock_guard lock(state_.mutex);
     if (!state_.error.empty()) throw Error("embree", std::string(what) + ": " + state_.error);
@@ -249,12 +278,21 @@ class EmbreeAccel final : public Accel {
   DeviceState state_;  // first: outlives the device whose callbacks use it
   std::unique_ptr<RTCDeviceTy, decltype(&rtcReleaseDevice)> device_{nullptr, rtcReleaseDevice};
   std::unique_ptr<RTCSceneTy, decltype(&rtcReleaseScene)> scene_{nullptr, rtcReleaseScene};
+  std::unique_ptr<RTCGeometryTy, decltype(&rtcReleaseGeometry)> geometry_{nullptr,
+                                                                          rtcReleaseGeometry};
+  float* vertices_ = nullptr;  // Embree's vertex buffer of geometry_
+  std::size_t prims_ = 0;
   AccelStats stats_;
 };
 
 }  // namespace
 
 std::unique_ptr<Accel> make_embree(std::span<const Triangle> triangles, const BuildConfig& config) {
+  return std::make_unique<EmbreeAccel>(triangles, config);
+}
+
+std::unique_ptr<EmbreeScene> make_embree_scene(std::span<const Triangle> triangles,
+                                               const BuildConfig& config) {
   return std::make_unique<EmbreeAccel>(triangles, config);
 }
 
