@@ -177,7 +177,8 @@ struct Slab8 {
   }
 };
 
-// Asks for the four cache lines of a node (or the three of a block) before they are needed.
+// Asks for the four cache lines of a node (or the three of a block and the line after it,
+// often the next leaf's) before they are needed.
 inline void prefetch(const void* p) {
 #if defined(__SSE__)
   const char* c = static_cast<const char*>(p);
@@ -255,112 +256,87 @@ struct Watertight4 {
   }
 };
 
-// One query's traversal, advanced a node or a leaf at a time. Must not move once constructed.
+// One query's traversal, in one loop whose state (current entry, stack, closest hit) lives in
+// locals the compiler keeps in registers. Children hit by the ray are entered nearest first;
+// the others wait on the stack, farther ones lower, and are skipped once behind the closest
+// hit. Returns true when an any-hit query found a hit.
 template <bool AnyHit>
-class Traversal {
- public:
-  Traversal(std::span<const WideNode> nodes, std::span<const TriangleBlock> blocks, const Ray& ray,
-            const Aabb& scene, float magnitude, Hit& hit)
-      : nodes_(nodes),
-        blocks_(blocks),
-        ray_(ray),
-        r_(ray, scene, magnitude),
-        w_(ray),
-        w4_(w_),
-        slab_(r_),
-        hit_(hit) {}
-  Traversal(const Traversal&) = delete;
-  Traversal& operator=(const Traversal&) = delete;
-
-  // Visits the current node or leaf; false once the query is answered.
-  bool step() {
-    if (current_.count == 0) {  // a wide node: enter the nearest hit child, push the others
-      const WideNode& n = nodes_[current_.child];
+bool traverse(std::span<const WideNode> node_span, std::span<const TriangleBlock> block_span,
+              const Ray& ray, const Aabb& scene, float magnitude, Hit& hit) {
+  const WideNode* const nodes = node_span.data();
+  const TriangleBlock* const blocks = block_span.data();
+  const RobustRay r(ray, scene, magnitude);
+  const Slab8 slab(r);
+  const WatertightRay w(ray);
+  const Watertight4 w4(w);
+  const float tmin = ray.tmin;
+  Hit best = hit;  // best.t: the far end of every test (tmax for an any-hit query)
+  Entry stack[kStackSize];
+  int sp = 0;
+  Entry current{0, 0, 0};  // the root
+  for (;;) {
+    if (current.count == 0) {  // a wide node: enter the nearest hit child, push the others
+      const WideNode& n = nodes[current.child];
       alignas(32) float t_entry[kWideWidth];
-      unsigned mask = slab_.test(n, ray_.tmin, hit_.t, t_entry);
+      unsigned mask = slab.test(n, tmin, best.t, t_entry);
       // Ask for every child that will be visited or pushed at once: the memory loads overlap
       // instead of waiting for each other when the stack is popped.
       for (unsigned m = mask; m != 0; m &= m - 1) {
         const int c = std::countr_zero(m);
-        prefetch(n.count[c] == 0 ? static_cast<const void*>(&nodes_[n.child[c]])
-                                 : static_cast<const void*>(&blocks_[n.child[c]]));
+        prefetch(n.count[c] == 0 ? static_cast<const void*>(&nodes[n.child[c]])
+                                 : static_cast<const void*>(&blocks[n.child[c]]));
       }
       if (mask != 0) {
         int i = std::countr_zero(mask);
         mask &= mask - 1;
         Entry nearest{n.child[i], n.count[i], t_entry[i]};
-        const int base = sp_;
+        const int base = sp;
         while (mask != 0) {  // keep this node's entries ordered: farther ones lower
           i = std::countr_zero(mask);
           mask &= mask - 1;
           Entry e{n.child[i], n.count[i], t_entry[i]};
           if (e.t < nearest.t) std::swap(e, nearest);
-          int j = sp_++;
-          for (; j > base && stack_[j - 1].t < e.t; --j) stack_[j] = stack_[j - 1];
-          stack_[j] = e;
+          int j = sp++;
+          for (; j > base && stack[j - 1].t < e.t; --j) stack[j] = stack[j - 1];
+          stack[j] = e;
         }
-        return enter(nearest);
+        current = nearest;
+        continue;
       }
-    } else if (leaf(current_.child, current_.count)) {
-      occluded_ = true;
-      return false;
+    } else {  // a leaf: its blocks of four triangles
+      for (std::uint32_t b = current.child; b < current.child + current.count; ++b) {
+        const TriangleBlock& block = blocks[b];
+        alignas(16) float t[kBlockWidth], u[kBlockWidth], v[kBlockWidth];
+        unsigned scalar;
+        unsigned found = w4.test(block, tmin, best.t, t, u, v, scalar);
+        while (scalar != 0) {  // edge cases: the scalar test decides in double precision
+          const int lane = std::countr_zero(scalar);
+          scalar &= scalar - 1;
+          if (intersect_triangle(w, block.triangle(lane), tmin, best.t, t[lane], u[lane], v[lane]))
+            found |= 1u << lane;
+        }
+        if constexpr (AnyHit) {
+          if (found != 0) return true;
+        } else {
+          while (found != 0) {
+            const int lane = std::countr_zero(found);
+            found &= found - 1;
+            const Hit candidate{t[lane], block.id[lane], u[lane], v[lane]};
+            if (candidate.closer_than(best)) best = candidate;
+          }
+        }
+      }
     }
     for (;;) {  // the next entry not behind the closest hit
-      if (sp_ == 0) return false;
-      const Entry e = stack_[--sp_];
-      if (e.t <= hit_.t) return enter(e);
+      if (sp == 0) {
+        hit = best;
+        return false;
+      }
+      current = stack[--sp];
+      if (current.t <= best.t) break;
     }
   }
-
-  bool occluded() const { return occluded_; }
-
- private:
-  bool enter(const Entry& e) {
-    current_ = e;
-    return true;
-  }
-
-  // Tests a leaf's blocks; true when an any-hit query is answered.
-  bool leaf(std::uint32_t first, std::uint32_t count) {
-    for (std::uint32_t i = first; i < first + count; ++i) {
-      const TriangleBlock& b = blocks_[i];
-      alignas(16) float t[kBlockWidth], u[kBlockWidth], v[kBlockWidth];
-      unsigned scalar;
-      unsigned found = w4_.test(b, ray_.tmin, AnyHit ? ray_.tmax : hit_.t, t, u, v, scalar);
-      while (scalar != 0) {  // edge cases: the scalar test decides in double precision
-        const int lane = std::countr_zero(scalar);
-        scalar &= scalar - 1;
-        if (intersect_triangle(w_, b.triangle(lane), ray_.tmin, AnyHit ? ray_.tmax : hit_.t,
-                               t[lane], u[lane], v[lane]))
-          found |= 1u << lane;
-      }
-      if constexpr (AnyHit) {
-        if (found != 0) return true;
-      } else {
-        while (found != 0) {
-          const int lane = std::countr_zero(found);
-          found &= found - 1;
-          const Hit candidate{t[lane], b.id[lane], u[lane], v[lane]};
-          if (candidate.closer_than(hit_)) hit_ = candidate;
-        }
-      }
-    }
-    return false;
-  }
-
-  std::span<const WideNode> nodes_;
-  std::span<const TriangleBlock> blocks_;
-  const Ray& ray_;
-  const RobustRay r_;
-  const WatertightRay w_;
-  const Watertight4 w4_;
-  const Slab8 slab_;
-  Hit& hit_;
-  bool occluded_ = false;
-  Entry current_{0, 0, 0};  // the root
-  int sp_ = 0;
-  Entry stack_[kStackSize];
-};
+}
 
 }  // namespace
 
@@ -393,19 +369,14 @@ void WideBvh::refit(std::span<const BvhNode> nodes, std::span<const Triangle> tr
 
 void WideBvh::intersect(const Ray& ray, const Aabb& scene, float magnitude, Hit& hit) const {
   if (nodes_.empty()) return;
-  Traversal<false> traversal(nodes_, blocks_, ray, scene, magnitude, hit);
-  while (traversal.step()) {
-  }
+  traverse<false>(nodes_, blocks_, ray, scene, magnitude, hit);
 }
 
 bool WideBvh::occluded(const Ray& ray, const Aabb& scene, float magnitude) const {
   if (nodes_.empty()) return false;
   Hit hit;
   hit.t = ray.tmax;
-  Traversal<true> traversal(nodes_, blocks_, ray, scene, magnitude, hit);
-  while (traversal.step()) {
-  }
-  return traversal.occluded();
+  return traverse<true>(nodes_, blocks_, ray, scene, magnitude, hit);
 }
 
 }  // namespace splitray
