@@ -197,7 +197,7 @@ void write_results(const std::string& path, const std::string& key, const Json& 
     table +=
         fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", name,
                     r.value("frames", 0), r.value("triangles", 0),
-                    number(r, "mean_build_ms_full", 1), number(r, "mean_build_ms_predicted", 1),
+                    number(r, "mean_build_ms_full", 1), number(r, "mean_build_ms_predicted", 2),
                     number(r, "mean_build_ms_sah", 1), number(r, "reduction", 3),
                     number(r, "sah_cost_ratio", 4), number(r, "mean_trace_ms_full", 2),
                     number(r, "mean_trace_ms_predicted", 2), number(r, "trace_ratio", 3),
