@@ -1,6 +1,7 @@
-// Collapsing and traversing the eight-wide layout. The slab test is the same sequence of
-// IEEE operations in the AVX and the scalar path (min/max operand order keeps NaN out, as in
-// robust_ray.hpp), so both give the same answers.
+// Collapsing and traversing the eight-wide layout. The slab test of the AVX path (with FMA)
+// and of the scalar path round differently, but both stay within the padding of
+// robust_ray.hpp (min/max operand order keeps NaN out), so both let every ray through to
+// every triangle it may hit, and the answers come from the same watertight triangle test.
 #include "splitray/accel/bvh/wide_bvh.hpp"
 
 #if defined(__SSE__)
