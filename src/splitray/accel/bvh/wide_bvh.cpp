@@ -198,12 +198,21 @@ struct Watertight4 {
 #if defined(__SSE2__)
   __m128 org[3], sx, sy, sz;  // org[i] = origin[k[i]]
 #endif
+#if defined(__AVX__)
+  __m256 org8[3], sx8, sy8, sz8;
+#endif
   explicit Watertight4(const WatertightRay& ray) : w(ray), k{ray.kx, ray.ky, ray.kz} {
 #if defined(__SSE2__)
     for (int i = 0; i < 3; ++i) org[i] = _mm_set1_ps(ray.org[k[i]]);
     sx = _mm_set1_ps(ray.sx);
     sy = _mm_set1_ps(ray.sy);
     sz = _mm_set1_ps(ray.sz);
+#endif
+#if defined(__AVX__)
+    for (int i = 0; i < 3; ++i) org8[i] = _mm256_set1_ps(ray.org[k[i]]);
+    sx8 = _mm256_set1_ps(ray.sx);
+    sy8 = _mm256_set1_ps(ray.sy);
+    sz8 = _mm256_set1_ps(ray.sz);
 #endif
   }
 
@@ -255,6 +264,59 @@ struct Watertight4 {
     return 0;
 #endif
   }
+
+#if defined(__AVX__)
+  // Two blocks at once (lanes 0-3: b0, 4-7: b1), lane by lane the very same operations.
+  unsigned test2(const TriangleBlock& b0, const TriangleBlock& b1, float tmin, float tmax,
+                 float* t_out, float* u_out, float* v_out, unsigned& scalar) const {
+    const auto row = [&](int vertex, int i) {
+      const int r = 3 * vertex + k[i];
+      const __m256 both = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_load_ps(b0.v[r])),
+                                               _mm_load_ps(b1.v[r]), 1);
+      return _mm256_sub_ps(both, org8[i]);
+    };
+    const __m256 a_x = row(0, 0), a_y = row(0, 1), a_z = row(0, 2);
+    const __m256 b_x = row(1, 0), b_y = row(1, 1), b_z = row(1, 2);
+    const __m256 c_x = row(2, 0), c_y = row(2, 1), c_z = row(2, 2);
+    const __m256 ax = _mm256_sub_ps(a_x, _mm256_mul_ps(sx8, a_z)),
+                 ay = _mm256_sub_ps(a_y, _mm256_mul_ps(sy8, a_z));
+    const __m256 bx = _mm256_sub_ps(b_x, _mm256_mul_ps(sx8, b_z)),
+                 by = _mm256_sub_ps(b_y, _mm256_mul_ps(sy8, b_z));
+    const __m256 cx = _mm256_sub_ps(c_x, _mm256_mul_ps(sx8, c_z)),
+                 cy = _mm256_sub_ps(c_y, _mm256_mul_ps(sy8, c_z));
+    const __m256 u = _mm256_sub_ps(_mm256_mul_ps(cx, by), _mm256_mul_ps(cy, bx));
+    const __m256 v = _mm256_sub_ps(_mm256_mul_ps(ax, cy), _mm256_mul_ps(ay, cx));
+    const __m256 e = _mm256_sub_ps(_mm256_mul_ps(bx, ay), _mm256_mul_ps(by, ax));
+    const __m256 zero = _mm256_setzero_ps();
+    const __m256 on_edge = _mm256_or_ps(
+        _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_EQ_OQ), _mm256_cmp_ps(v, zero, _CMP_EQ_OQ)),
+        _mm256_cmp_ps(e, zero, _CMP_EQ_OQ));
+    scalar = static_cast<unsigned>(_mm256_movemask_ps(on_edge));
+    const __m256 negative = _mm256_or_ps(
+        _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_LT_OQ), _mm256_cmp_ps(v, zero, _CMP_LT_OQ)),
+        _mm256_cmp_ps(e, zero, _CMP_LT_OQ));
+    const __m256 positive = _mm256_or_ps(
+        _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_GT_OQ), _mm256_cmp_ps(v, zero, _CMP_GT_OQ)),
+        _mm256_cmp_ps(e, zero, _CMP_GT_OQ));
+    const __m256 det = _mm256_add_ps(_mm256_add_ps(u, v), e);
+    const __m256 outside = _mm256_or_ps(
+        _mm256_or_ps(_mm256_and_ps(negative, positive), _mm256_cmp_ps(det, zero, _CMP_EQ_OQ)),
+        on_edge);
+    if (_mm256_movemask_ps(outside) == 0xff) return 0;
+    const __m256 az = _mm256_mul_ps(sz8, a_z), bz = _mm256_mul_ps(sz8, b_z),
+                 cz = _mm256_mul_ps(sz8, c_z);
+    const __m256 t_scaled = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(u, az), _mm256_mul_ps(v, bz)),
+                                          _mm256_mul_ps(e, cz));
+    const __m256 inv_det = _mm256_div_ps(_mm256_set1_ps(1.0f), det);
+    const __m256 t = _mm256_mul_ps(t_scaled, inv_det);
+    const __m256 in_range = _mm256_and_ps(_mm256_cmp_ps(t, _mm256_set1_ps(tmin), _CMP_GE_OQ),
+                                          _mm256_cmp_ps(t, _mm256_set1_ps(tmax), _CMP_LE_OQ));
+    _mm256_storeu_ps(t_out, t);
+    _mm256_storeu_ps(u_out, _mm256_mul_ps(v, inv_det));
+    _mm256_storeu_ps(v_out, _mm256_mul_ps(e, inv_det));
+    return static_cast<unsigned>(_mm256_movemask_ps(_mm256_andnot_ps(outside, in_range)));
+  }
+#endif
 };
 
 // One query's traversal, in one loop whose state (current entry, stack, closest hit) lives in
@@ -304,16 +366,29 @@ bool traverse(std::span<const WideNode> node_span, std::span<const TriangleBlock
         current = nearest;
         continue;
       }
-    } else {  // a leaf: its blocks of four triangles
-      for (std::uint32_t b = current.child; b < current.child + current.count; ++b) {
-        const TriangleBlock& block = blocks[b];
-        alignas(16) float t[kBlockWidth], u[kBlockWidth], v[kBlockWidth];
+    } else {  // a leaf: its blocks of four triangles, two at a time where there are two
+      const std::uint32_t end = current.child + current.count;
+      for (std::uint32_t b = current.child; b < end;) {
+        alignas(32) float t[2 * kBlockWidth], u[2 * kBlockWidth], v[2 * kBlockWidth];
         unsigned scalar;
-        unsigned found = w4.test(block, tmin, best.t, t, u, v, scalar);
+        const TriangleBlock* pair[2] = {&blocks[b], &blocks[b]};
+        unsigned found;
+#if defined(__AVX__)
+        if (b + 1 < end) {
+          pair[1] = &blocks[b + 1];
+          found = w4.test2(*pair[0], *pair[1], tmin, best.t, t, u, v, scalar);
+          b += 2;
+        } else
+#endif
+        {
+          found = w4.test(*pair[0], tmin, best.t, t, u, v, scalar);
+          b += 1;
+        }
         while (scalar != 0) {  // edge cases: the scalar test decides in double precision
           const int lane = std::countr_zero(scalar);
           scalar &= scalar - 1;
-          if (intersect_triangle(w, block.triangle(lane), tmin, best.t, t[lane], u[lane], v[lane]))
+          if (intersect_triangle(w, pair[lane / kBlockWidth]->triangle(lane % kBlockWidth), tmin,
+                                 best.t, t[lane], u[lane], v[lane]))
             found |= 1u << lane;
         }
         if constexpr (AnyHit) {
@@ -322,7 +397,8 @@ bool traverse(std::span<const WideNode> node_span, std::span<const TriangleBlock
           while (found != 0) {
             const int lane = std::countr_zero(found);
             found &= found - 1;
-            const Hit candidate{t[lane], block.id[lane], u[lane], v[lane]};
+            const Hit candidate{t[lane], pair[lane / kBlockWidth]->id[lane % kBlockWidth], u[lane],
+                                v[lane]};
             if (candidate.closer_than(best)) best = candidate;
           }
         }
