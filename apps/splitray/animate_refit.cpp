@@ -53,7 +53,8 @@ std::vector<RefitFrame> refit_frames(const std::vector<std::vector<Triangle>>& f
     }
     row.sah_rebuild = rebuilt->stats().sah_cost.value_or(0);
     row.sah_refit = refitted->stats().sah_cost.value_or(0);
-    row.nodes = refitted->stats().nodes;
+    row.nodes_rebuild = rebuilt->stats().nodes;
+    row.nodes_refit = refitted->stats().nodes;
     row.evals_rebuild = rebuilt->stats().cost_evals;
     if (rays > 0) {
       const std::vector<Ray> set = make_rays(tris, RayKind::primary, seed + i, rays);

@@ -14,7 +14,7 @@ namespace splitray::app {
 struct RefitFrame {
   double rebuild_ms = 0, refit_ms = 0, reference_ms = 0;  // frame 0: refit_ms = its build
   double sah_rebuild = 0, sah_refit = 0;
-  std::size_t nodes = 0;  // the same for the refitted and the rebuilt tree's builder
+  std::size_t nodes_rebuild = 0, nodes_refit = 0;  // refit: the first frame's tree's
   std::uint64_t evals_rebuild = 0;
   double trace_ms_rebuild = 0, trace_ms_refit = 0;
   std::size_t hit_mismatches = 0;  // rays whose hit differs between refitted and rebuilt

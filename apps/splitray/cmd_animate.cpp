@@ -278,7 +278,8 @@ void run(AnimateCommand command) {
       r.build_ms_sah = f.reference_ms;
       r.sah_full = f.sah_rebuild;
       r.sah_predicted = f.sah_refit;
-      r.nodes_full = r.nodes_predicted = f.nodes;
+      r.nodes_full = f.nodes_rebuild;
+      r.nodes_predicted = f.nodes_refit;
       r.evals_full = f.evals_rebuild;  // a refit evaluates no SAH cost
       r.trace_ms_full = f.trace_ms_rebuild;
       r.trace_ms_predicted = f.trace_ms_refit;
