@@ -69,12 +69,51 @@ std::optional<double> trace_target(const Json* row, const char* kind) {
   return batched["ratio_to_embree_single"].get<double>();
 }
 
+// Single-ray throughput of `row` over `peer`'s (rtcIntersect1 for Embree) on rays `kind`.
+std::optional<double> single_ratio(const Json* row, const Json* peer, const char* kind) {
+  if (!row || !peer || !(*row)["trace"].contains(kind) || !(*peer)["trace"].contains(kind))
+    return std::nullopt;
+  return (*row)["trace"][kind]["single"]["mrays_per_s"].get<double>() /
+         (*peer)["trace"][kind]["single"]["mrays_per_s"].get<double>();
+}
+
+// Issue 5's targets, where the run has the rows they compare.
+std::string bih_bvh_targets(const Json& report) {
+  std::string out = "\n## Targets of issue 5 (BIH and BVH)\n\n";
+  out +=
+      "BIH global's build speed-up over kd binned; single-ray diffuse (and primary) throughput "
+      "of our BVHs over Embree high's `rtcIntersect1` on the same rays.\n\n";
+  out +=
+      "| mesh | bih global speed-up over kd binned (≥ 3) | sbvh diffuse / Embree high (≥ 1.0) | "
+      "binned diffuse / Embree high | sbvh primary / Embree high | binned primary / Embree "
+      "high |\n";
+  out += "|---|--:|--:|--:|--:|--:|\n";
+  bool any = false;
+  for (const Json& mesh : report["meshes"]) {
+    const Json& rows = mesh["results"];
+    const Json* bih = find_row(rows, "bih", "global");
+    const Json* kd_binned = find_row(rows, "kd", "binned");
+    const Json* sbvh = find_row(rows, "bvh", "sbvh");
+    const Json* binned = find_row(rows, "bvh", "binned");
+    const Json* high = find_row(rows, "embree", "high");
+    if (!bih && !sbvh && !binned) continue;
+    any = true;
+    out += fmt::format("| {} | {} | {} | {} | {} | {} |\n", mesh["name"].get<std::string>(),
+                       target(ratio(kd_binned, bih, "build_ms"), 3, true),
+                       target(single_ratio(sbvh, high, "diffuse"), 1.0, true),
+                       target(single_ratio(binned, high, "diffuse"), 1.0, true),
+                       target(single_ratio(sbvh, high, "primary"), 1.0, true),
+                       target(single_ratio(binned, high, "primary"), 1.0, true));
+  }
+  return any ? out : "";
+}
+
 }  // namespace
 
 std::string markdown_report(const Json& report) {
   const Json& machine = report["machine"];
   const Json& settings = report["settings"];
-  std::string out = "# Build and trace: kd-tree builders against Embree\n\n";
+  std::string out = "# Build and trace: kd-tree, BIH and BVH builders against Embree\n\n";
   out += fmt::format(
       "Measured {} on {} ({} threads of {}), {}, Embree {}; load average {:.1f} at the start, "
       "{:.1f} at the end. Medians of {} runs after a warm-up; {} rays per kind (seed {}), the "
@@ -169,6 +208,8 @@ std::string markdown_report(const Json& report) {
                     target(trace_target(sah, "primary"), 1.0, true),
                     target(trace_target(sah, "diffuse"), 0.7, true));
   }
+
+  out += bih_bvh_targets(report);
 
   if (!report["notes"].empty()) {
     out += "\n## Notes\n\n";

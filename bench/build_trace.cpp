@@ -199,7 +199,7 @@ void add_build_trace_options(CLI::App& command, BuildTraceOptions& options) {
   command.add_flag("--quick", options.quick,
                    "Smoke test: the two vendored meshes, 1 run, 65536 rays");
   command.add_option("--accels", options.accels,
-                     "Structures to measure, each with all its builders (default: kd embree)");
+                     "Structures to measure, each with all its builders (default: kd bih bvh embree)");
   command.add_option("--threads", options.threads, "Worker threads (0 = all cores)")
       ->check(CLI::NonNegativeNumber);
   command.add_option("--seed", options.seed, "Seed of the ray sets");

@@ -1,9 +1,9 @@
 #pragma once
-// The build-and-trace benchmark (issue 3): for every benchmark mesh, every kd builder and
-// Embree low/medium/high: build time, SAH cost, cost evaluations, and Mrays/s for primary and
-// diffuse rays (the same rays for everyone), medians of several runs, as ratios to Embree
-// medium measured in the same run, with hit checksums compared to kd sah's.
-// Shared by `splitray_bench` and `splitray bench build-trace`.
+// The build-and-trace benchmark (issues 3 and 5): for every benchmark mesh, every kd, BIH and
+// BVH builder and Embree low/medium/high: build time, SAH cost, cost evaluations, and Mrays/s for
+// primary and diffuse rays (the same rays for everyone), medians of several runs, as ratios to
+// Embree medium measured in the same run, with hit checksums compared to kd sah's. Shared by
+// `splitray_bench` and `splitray bench build-trace`.
 #include <CLI/CLI.hpp>
 #include <cstdint>
 #include <nlohmann/json.hpp>
@@ -18,7 +18,7 @@ struct BuildTraceOptions {
   int runs = 0;                     // timed runs per measurement (median); 0 = 5 (quick: 1)
   std::size_t rays = 0;             // rays per kind; 0 = 2^20 (quick: 2^16)
   std::vector<std::string> meshes;  // names (or files); empty = all
-  std::vector<std::string> accels = {"kd", "embree"};
+  std::vector<std::string> accels = {"kd", "bih", "bvh", "embree"};
   bool quick = false;  // smoke test: 2 vendored meshes, 1 run, 64k rays
   int threads = 0;     // 0 = all cores
   std::uint64_t seed = 1;

@@ -352,4 +352,44 @@ TEST_F(Cli, TraceIsReproducibleAndIndependentOfThreads) {
   EXPECT_NE(one["id_checksum"], other["id_checksum"]) << "another seed should cast other rays";
 }
 
+// animate --accel bvh --refit on a real sequence: the kd run's summary keys, refitted trees
+// that answer every ray as the rebuilt ones, and a results table that keeps the prose around it.
+TEST_F(Cli, AnimateRefitsABvhOnHorseCollapse) {
+  SPLITRAY_REQUIRE_SHARED(first, "anim_horse_collapse/frames/horse-collapse-01.obj.gz");
+  const std::string frames =
+      quote((fs::path(first).parent_path() / "horse-collapse-%02d.obj.gz").string());
+  const std::string common = "animate " + frames + " --frames 4 --rays 3000 -t 1";
+  const json kd = run_json(common + " --predictor kalman");
+  const fs::path results = dir_ / "animate.json", md = dir_ / "animate.md";
+  std::ofstream(md) << "# Prose before\n\n| sequence / predictor | old |\n|---|---|\n| x | 1 |\n\nafter\n";
+  for (const char* builder : {"binned", "sbvh"}) {
+    const json bvh = run_json(common + " --accel bvh --refit --builder " + builder +
+                              " --results " + quote(results.string()));
+    for (const auto& [key, value] : kd.items())
+      EXPECT_TRUE(bvh.contains(key)) << "animate --refit lacks the summary key " << key;
+    EXPECT_EQ(bvh.value("accel", ""), "bvh");
+    EXPECT_EQ(bvh.value("predictor", ""), "refit");
+    EXPECT_EQ(bvh.value("builder", ""), builder);
+    EXPECT_EQ(bvh.value("frames", 0), 4);
+    EXPECT_EQ(bvh.value("triangles", 0), 16843);
+    EXPECT_EQ(bvh.value("hit_mismatches", -1), 0) << "refitted and rebuilt BVHs disagree";
+    EXPECT_GT(bvh.value("mean_trace_ms_predicted", 0.0), 0.0);
+    EXPECT_GT(bvh.value("sah_cost_ratio", 0.0), 0.0);
+    EXPECT_TRUE(bvh["mean_prediction_error"].is_null());
+  }
+  const json all = json::parse(read_text(results));
+  EXPECT_TRUE(all["runs"].contains("anim_horse_collapse/bvh-binned-refit"));
+  EXPECT_TRUE(all["runs"].contains("anim_horse_collapse/bvh-sbvh-refit"));
+  const std::string table = read_text(md);
+  EXPECT_EQ(table.rfind("# Prose before\n", 0), 0u) << table;
+  EXPECT_NE(table.find("\nafter\n"), std::string::npos) << table;
+  EXPECT_NE(table.find("| anim_horse_collapse/bvh-sbvh-refit | 4 | 16843 |"), std::string::npos)
+      << table;
+  EXPECT_EQ(table.find("| x | 1 |"), std::string::npos) << "the old table should be replaced";
+
+  expect_failure(common + " --accel kd --refit", "--refit");
+  expect_failure(common + " --accel bvh", "--refit");
+  expect_failure(common + " --accel bvh --refit --builder nope", "nope");
+}
+
 }  // namespace

@@ -2,7 +2,8 @@
 // (the baseline, `golden` by default, and the exact `sah` for reference) and predicted from
 // the previous frames' splits by Kalman or Wiener filters (paper 000), in one process on the
 // same frames. Prints per-frame rows and a summary (paper 000 Table 1); --plot draws paper
-// Fig. 7 through scripts/plot_animate.py.
+// Fig. 7 through scripts/plot_animate.py. With --accel bvh --refit the same rows and summary
+// compare a BVH refitted frame after frame with one rebuilt every frame (animate_refit.hpp).
 #include <fmt/core.h>
 
 #include <algorithm>
@@ -12,6 +13,7 @@
 #include <optional>
 #include <sstream>
 
+#include "animate_refit.hpp"
 #include "commands.hpp"
 #include "options.hpp"
 #include "progress.hpp"
@@ -43,6 +45,7 @@ struct AnimateCommand {
   std::size_t rays = 16384;
   std::uint64_t seed = 1;
   bool json = false;
+  bool refit = false;  // --accel bvh: refit the first frame's BVH instead of predicting splits
   std::string csv, plot, render_dir, results, name;
 };
 
@@ -168,6 +171,20 @@ std::string sequence_name(const AnimateCommand& command, const FrameSequence& se
   return dir.filename().string();
 }
 
+// `text` with its results table (the lines from "| sequence" to the next line that does not
+// start with '|') replaced by `table`, so that prose written around the table survives.
+std::string replace_table(const std::string& text, const std::string& table) {
+  std::size_t begin = text.compare(0, 10, "| sequence") == 0 ? 0 : text.find("\n| sequence");
+  if (begin == std::string::npos) return text.empty() ? table : text + "\n" + table;
+  if (begin > 0) ++begin;  // past the newline
+  std::size_t end = begin;
+  while (end < text.size() && text[end] == '|') {
+    const std::size_t eol = text.find('\n', end);
+    end = eol == std::string::npos ? text.size() : eol + 1;
+  }
+  return text.substr(0, begin) + table + text.substr(end);
+}
+
 // Merges `summary` into the results file (runs keyed "sequence/predictor") and rewrites it
 // and its Markdown table (same name, .md), both atomically.
 void write_results(const std::string& path, const std::string& key, const Json& summary) {
@@ -180,30 +197,42 @@ void write_results(const std::string& path, const std::string& key, const Json& 
   }
   all["runs"][key] = summary;
   write_file_atomically(path, all.dump(2) + "\n");
-  std::string md =
+  // A number of a run, "–" where the run has none (older runs, or null: not applicable).
+  const auto number = [](const Json& r, const char* name, int digits) {
+    const auto it = r.find(name);
+    return it == r.end() || !it->is_number() ? std::string("–")
+                                             : fmt::format("{:.{}f}", it->get<double>(), digits);
+  };
+  std::string table =
       "| sequence / predictor | frames | triangles | full ms | predicted ms | sah ms | reduction | "
-      "sah_cost_ratio | trace_ratio | median reduction | median trace_ratio | mean err | "
-      "predicted nodes |\n"
-      "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+      "sah_cost_ratio | trace ms full | trace ms predicted | trace_ratio | median reduction | "
+      "median trace_ratio | mean err | predicted nodes |\n"
+      "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const auto& [name, r] : all["runs"].items()) {
     if (r.value("accel", "") == "embree") {  // one scene updated every frame: its times only
-      md += fmt::format("| {} ({:.1f} Mrays/s) | {} | {} | {:.2f} | | | | | | | | | |\n", name,
-                        r.value("trace_mrays_per_s", 0.0), r.value("frames", 0),
-                        r.value("triangles", 0), r.value("mean_build_ms", 0.0));
+      table += fmt::format("| {} ({:.1f} Mrays/s) | {} | {} | {:.2f} | | | | | | | | | | | |\n",
+                           name, r.value("trace_mrays_per_s", 0.0), r.value("frames", 0),
+                           r.value("triangles", 0), r.value("mean_build_ms", 0.0));
       continue;
     }
-    md += fmt::format(
-        "| {} | {} | {} | {:.1f} | {:.1f} | {:.1f} | {:.3f} | {:.4f} | {:.3f} | {:.3f} | {:.3f} | "
-        "{:.4f} | {:.2f} |\n",
-        name, r.value("frames", 0), r.value("triangles", 0), r.value("mean_build_ms_full", 0.0),
-        r.value("mean_build_ms_predicted", 0.0), r.value("mean_build_ms_sah", 0.0),
-        r.value("reduction", 0.0), r.value("sah_cost_ratio", 0.0), r.value("trace_ratio", 0.0),
-        r.value("median_reduction", 0.0), r.value("median_trace_ratio", 0.0),
-        r.value("mean_prediction_error", 0.0), r.value("predicted_node_share", 0.0));
+    table += fmt::format(
+        "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", name,
+        r.value("frames", 0), r.value("triangles", 0), number(r, "mean_build_ms_full", 1),
+        number(r, "mean_build_ms_predicted", 2), number(r, "mean_build_ms_sah", 1),
+        number(r, "reduction", 3), number(r, "sah_cost_ratio", 4),
+        number(r, "mean_trace_ms_full", 2), number(r, "mean_trace_ms_predicted", 2),
+        number(r, "trace_ratio", 3), number(r, "median_reduction", 3),
+        number(r, "median_trace_ratio", 3), number(r, "mean_prediction_error", 4),
+        number(r, "predicted_node_share", 2));
   }
   fs::path md_path(path);
   md_path.replace_extension(".md");
-  write_file_atomically(md_path.string(), md);
+  std::string old;
+  if (fs::exists(md_path)) {
+    std::ifstream in(md_path);
+    old.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  write_file_atomically(md_path.string(), replace_table(old, table));
 }
 
 // Embree as users drive it through an animation: one scene, its vertices updated and the
@@ -260,6 +289,10 @@ void run_embree(const AnimateCommand& command, const FrameSequence& sequence,
   }
 }
 
+void report(const AnimateCommand& command, const FrameSequence& sequence,
+            const std::vector<std::vector<Triangle>>& frames, const std::vector<FrameRow>& rows,
+            const std::string& builder);
+
 void run(AnimateCommand command) {
   const FrameSequence sequence(command.frames);
   command.config.kind = parse_predictor_kind(command.predictor);
@@ -270,10 +303,47 @@ void run(AnimateCommand command) {
     frames = load_frames(sequence, command.max_frames);
   }
   const ThreadLimit limit(command.accel.build.threads);
+  if (command.refit && command.accel.accel != "bvh")
+    throw Error("--refit", "only BVHs refit (--accel bvh --refit); kd-trees are rebuilt");
   if (command.accel.accel == "embree") return run_embree(command, sequence, frames);
+  if (command.accel.accel == "bvh") {
+    if (!command.refit) throw Error("--accel bvh", "animate refits BVHs: add --refit");
+    ProgressBar bar("animate");
+    const std::vector<RefitFrame> refits =
+        refit_frames(frames, command.accel.build, command.rays, command.seed,
+                     [&](double done) { bar.update(done); });
+    bar.finish();
+    std::vector<FrameRow> rows(refits.size());
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      const RefitFrame& f = refits[i];
+      FrameRow& r = rows[i];
+      r.build_ms_full = f.rebuild_ms;
+      r.build_ms_predicted = f.refit_ms;
+      r.build_ms_sah = f.reference_ms;
+      r.sah_full = f.sah_rebuild;
+      r.sah_predicted = f.sah_refit;
+      r.nodes_full = f.nodes_rebuild;
+      r.nodes_predicted = f.nodes_refit;
+      r.evals_full = f.evals_rebuild;  // a refit evaluates no SAH cost
+      r.trace_ms_full = f.trace_ms_rebuild;
+      r.trace_ms_predicted = f.trace_ms_refit;
+      r.hit_mismatches = f.hit_mismatches;
+    }
+    if (!command.render_dir.empty()) {
+      Aabb box;
+      for (const Triangle& t : frames[0]) box.extend(t.bounds());
+      const Camera camera = Camera::frame(box);
+      for (std::size_t i = 0; i < frames.size(); ++i)
+        render_frame(frames[i], camera, BuildConfig{}, command.render_dir, i);
+    }
+    const std::string builder =
+        command.accel.build.builder.empty() ? "binned" : command.accel.build.builder;
+    return report(command, sequence, frames, rows, builder);
+  }
   if (command.accel.accel != "kd")
     throw Error("--accel " + command.accel.accel,
-                "animate rebuilds kd-trees (--accel kd) or Embree (--accel embree)");
+                "animate rebuilds kd-trees (--accel kd), refits BVHs (--accel bvh --refit) or "
+                "rebuilds Embree (--accel embree)");
 
   BuildConfig base = command.accel.build;
   if (base.builder.empty()) base.builder = "golden";
@@ -341,7 +411,15 @@ void run(AnimateCommand command) {
     bar.update(static_cast<double>(i + 1) / frames.size());
   }
   bar.finish();
+  report(command, sequence, frames, rows, base.builder);
+}
 
+// Summary, CSV, plot and results of the per-frame rows: kd rebuilds (full = from scratch,
+// predicted = Kalman/Wiener) or, with --refit, BVHs (full = rebuilt, predicted = refitted,
+// sah = sbvh); means over frames 1.. (frame 0 has nothing to predict from or refit).
+void report(const AnimateCommand& command, const FrameSequence& sequence,
+            const std::vector<std::vector<Triangle>>& frames, const std::vector<FrameRow>& rows,
+            const std::string& builder) {
   // Means over frames 1.. (frame 0 has nothing to predict from), as in paper 000 Table 1.
   const double full_ms = mean_from(rows, 1, &FrameRow::build_ms_full);
   const double predicted_ms = mean_from(rows, 1, &FrameRow::build_ms_predicted);
@@ -368,8 +446,10 @@ void run(AnimateCommand command) {
     }
   }
   const double counted = static_cast<double>(rows.size() > 1 ? rows.size() - 1 : 1);
+  const std::string predictor = command.refit ? "refit" : command.predictor;
+  const auto predicted_only = [&](double value) { return command.refit ? Json() : Json(value); };
 
-  const std::string csv = csv_text(rows, sequence, command.predictor);
+  const std::string csv = csv_text(rows, sequence, predictor);
   if (!command.csv.empty()) write_file_atomically(command.csv, csv);
   if (!command.plot.empty()) {
     const fs::path tmp =
@@ -392,11 +472,16 @@ void run(AnimateCommand command) {
        1 - median_ratio(rows, 1, &FrameRow::build_ms_predicted, &FrameRow::build_ms_full)},
       {"median_trace_ratio",
        median_ratio(rows, 0, &FrameRow::trace_ms_full, &FrameRow::trace_ms_predicted)},
-      {"predictor", command.predictor},
-      {"builder", base.builder},
-      {"mean_prediction_error", errors ? error_sum / static_cast<double>(errors) : 0},
-      {"max_prediction_error", error_max},
-      {"predicted_node_share", searched > 0 ? predicted_nodes / searched : 0},
+      {"mean_trace_ms_full", trace_full},
+      {"mean_trace_ms_predicted", trace_predicted},
+      {"accel", command.accel.accel},
+      {"predictor", predictor},
+      {"builder", builder},
+      // Nothing is predicted when refitting: null.
+      {"mean_prediction_error",
+       predicted_only(errors ? error_sum / static_cast<double>(errors) : 0)},
+      {"max_prediction_error", predicted_only(error_max)},
+      {"predicted_node_share", predicted_only(searched > 0 ? predicted_nodes / searched : 0)},
       {"mean_cost_evals_full", evals_full / counted},
       {"mean_cost_evals_predicted", evals_predicted / counted},
       {"rays_per_frame", command.rays},
@@ -405,27 +490,33 @@ void run(AnimateCommand command) {
       {"first_frame", sequence.label(0)},
   };
   if (!command.results.empty())
-    write_results(command.results, sequence_name(command, sequence) + "/" + command.predictor,
+    write_results(command.results,
+                  sequence_name(command, sequence) + "/" +
+                      (command.refit ? "bvh-" + builder + "-refit" : command.predictor),
                   summary);
   if (command.json) {
     print_json(summary);
     return;
   }
-  fmt::print("{:>5} {:>10} {:>10} {:>10} {:>9} {:>9} {:>8} {:>9} {:>9} {:>8} {:>8}\n", "frame",
-             "full_ms", "pred_ms", "sah_ms", "sah_full", "sah_pred", "nodes", "evals_f", "evals_p",
-             "err_mean", "err_max");
+  if (command.refit)
+    fmt::print("full = rebuilt, pred = refitted ({}), sah = sbvh rebuilt\n", builder);
+  fmt::print("{:>5} {:>10} {:>10} {:>10} {:>9} {:>9} {:>8} {:>9} {:>9} {:>8} {:>8} {:>9} {:>9}\n",
+             "frame", "full_ms", "pred_ms", "sah_ms", "sah_full", "sah_pred", "nodes", "evals_f",
+             "evals_p", "err_mean", "err_max", "trace_f", "trace_p");
   for (std::size_t i = 0; i < rows.size(); ++i) {
     const FrameRow& r = rows[i];
     fmt::print(
-        "{:5d} {:10.3f} {:10.3f} {:10.3f} {:9.3f} {:9.3f} {:8d} {:9d} {:9d} {:8.4f} {:8.4f}\n", i,
-        r.build_ms_full, r.build_ms_predicted, r.build_ms_sah, r.sah_full, r.sah_predicted,
+        "{:5d} {:10.3f} {:10.3f} {:10.3f} {:9.3f} {:9.3f} {:8d} {:9d} {:9d} {:8.4f} {:8.4f} "
+        "{:9.3f} {:9.3f}\n",
+        i, r.build_ms_full, r.build_ms_predicted, r.build_ms_sah, r.sah_full, r.sah_predicted,
         r.nodes_predicted, r.evals_full, r.evals_predicted, r.predicted.mean_error,
-        r.predicted.max_error);
+        r.predicted.max_error, r.trace_ms_full, r.trace_ms_predicted);
   }
   std::vector<std::pair<std::string, std::string>> table;
   for (const auto& [key, value] : summary.items())
-    table.emplace_back(
-        key, value.is_number_float() ? fmt::format("{:.4f}", value.get<double>()) : value.dump());
+    table.emplace_back(key, value.is_number_float() ? fmt::format("{:.4f}", value.get<double>())
+                            : value.is_null()       ? "n/a"
+                                                    : value.dump());
   print_table(table);
 }
 
@@ -436,7 +527,8 @@ void add_animate_command(CLI::App& app) {
   CLI::App* sub = app.add_subcommand(
       "animate",
       "Rebuild kd-trees over the frames of an animation, from scratch and predicted from the "
-      "previous frames' splits (Kalman / Wiener filters, paper 000)");
+      "previous frames' splits (Kalman / Wiener filters, paper 000); or refit a BVH "
+      "(--accel bvh --refit) against rebuilding it");
   sub->add_option("frames", command->frames,
                   "Frames: mesh files, a glob, a printf pattern (horse-%02d.obj.gz), a folder, "
                   "one MD2 file or one BART .aff scene")
@@ -460,6 +552,9 @@ void add_animate_command(CLI::App& app) {
   sub->add_option("--wiener-step", command->config.wiener.step, "NLMS step size mu");
   sub->add_option("--refresh", command->config.refresh_frames,
                   "Re-check a node's other axes at least every N frames");
+  sub->add_flag("--refit", command->refit,
+                "With --accel bvh: refit the first frame's BVH to every frame; 'full' is the "
+                "BVH rebuilt every frame, 'predicted' the refitted one, 'sah' sbvh rebuilt");
   sub->add_flag("--json", command->json, "Print the summary as one JSON object");
   sub->add_option("--csv", command->csv, "Write per-frame rows to this CSV file");
   sub->add_option("--plot", command->plot,

@@ -26,6 +26,7 @@ struct TraceCommand {
   std::uint64_t seed = 1;
   std::string camera;
   bool any = false;
+  bool single = false;  // time the single-ray calls (Embree: rtcIntersect1) instead of batched
   int repeat = 1;
   bool json = false;
 };
@@ -49,29 +50,42 @@ void run(const TraceCommand& command) {
   const AccelStats& stats = accel->stats();
 
   std::optional<Camera> camera;
-  if (!command.camera.empty()) camera = to_camera(parse_camera(command.camera), Camera{}.vfov_degrees);
+  if (!command.camera.empty())
+    camera = to_camera(parse_camera(command.camera), Camera{}.vfov_degrees);
   const RayKind kind = parse_ray_kind(command.kind);
   const Timer ray_timer;
-  const std::vector<Ray> rays = make_rays(geometry.triangles, kind, command.seed, command.rays, camera);
+  const std::vector<Ray> rays =
+      make_rays(geometry.triangles, kind, command.seed, command.rays, camera);
   const double rays_ms = ray_timer.ms();
 
-  // Only the batched tracing is timed; the median of --repeat runs is reported.
-  std::vector<double> times;
+  // Only the tracing is timed (batched, or one single-ray call per ray with --single); the
+  // median of --repeat runs is reported.
+  std::vector<double> times, cpu_times;
   Totals totals;
   if (command.any) {
     std::vector<std::uint8_t> occluded(rays.size());
     for (int r = 0; r < command.repeat; ++r) {
       const Timer timer;
-      accel->occluded(rays, occluded);
+      const CpuTimer cpu;
+      if (command.single)
+        accel->Accel::occluded(rays, occluded);
+      else
+        accel->occluded(rays, occluded);
       times.push_back(timer.ms());
+      cpu_times.push_back(cpu.ms());
     }
     for (const std::uint8_t o : occluded) totals.hits += o ? 1 : 0;
   } else {
     std::vector<Hit> hits(rays.size());
     for (int r = 0; r < command.repeat; ++r) {
       const Timer timer;
-      accel->intersect(rays, hits);
+      const CpuTimer cpu;
+      if (command.single)
+        accel->Accel::intersect(rays, hits);
+      else
+        accel->intersect(rays, hits);
       times.push_back(timer.ms());
+      cpu_times.push_back(cpu.ms());
     }
     for (const Hit& hit : hits) {
       if (!hit.found()) continue;
@@ -82,6 +96,8 @@ void run(const TraceCommand& command) {
   }
   const double ms = median(times);
   const double mrays_per_s = ms > 0 ? rays.size() / (ms * 1e3) : 0.0;
+  const double cpu_ms = median(cpu_times);
+  const double mrays_per_cpu_s = cpu_ms > 0 ? rays.size() / (cpu_ms * 1e3) : 0.0;
   const int threads = effective_threads(command.accel.build.threads);
 
   if (command.json) {
@@ -95,6 +111,8 @@ void run(const TraceCommand& command) {
         {"id_checksum", id_checksum},
         {"ms", ms},
         {"mrays_per_s", mrays_per_s},
+        {"cpu_ms", cpu_ms},
+        {"mrays_per_cpu_s", mrays_per_cpu_s},
         {"build_ms", stats.build_ms},
         {"accel", stats.accel},
         {"builder", stats.builder},
@@ -102,6 +120,7 @@ void run(const TraceCommand& command) {
         {"kind", command.kind},
         {"seed", command.seed},
         {"any", command.any},
+        {"single", command.single},
         {"repeat", command.repeat},
         {"threads", threads},
         {"mesh", command.mesh},
@@ -115,8 +134,7 @@ void run(const TraceCommand& command) {
     return;
   }
   fmt::print("splitray trace: {} on {}, {} {} rays (seed {}){}\n", structure_name(stats),
-             command.mesh, rays.size(), command.kind, command.seed,
-             command.any ? ", any hit" : "");
+             command.mesh, rays.size(), command.kind, command.seed, command.any ? ", any hit" : "");
   const std::string not_any = "n/a (--any)";
   print_table({
       {"rays", std::to_string(rays.size())},
@@ -125,6 +143,7 @@ void run(const TraceCommand& command) {
       {"id_checksum", command.any ? not_any : std::to_string(totals.id_checksum)},
       {"ms", fmt::format("{:.2f}", ms)},
       {"mrays_per_s", fmt::format("{:.3f}", mrays_per_s)},
+      {"mrays_per_cpu_s", fmt::format("{:.3f}", mrays_per_cpu_s)},
       {"build_ms", fmt::format("{:.2f}", stats.build_ms)},
       {"prims", std::to_string(stats.prims)},
       {"threads", std::to_string(threads)},
@@ -137,7 +156,8 @@ void add_trace_command(CLI::App& app) {
   auto command = std::make_shared<TraceCommand>();
   CLI::App* sub = app.add_subcommand(
       "trace", "Cast a reproducible ray set through a structure and print hit checksums and speed");
-  sub->add_option("MESH", command->mesh, "Mesh file (any format of render; also *.gz) or JSON scene")
+  sub->add_option("MESH", command->mesh,
+                  "Mesh file (any format of render; also *.gz) or JSON scene")
       ->required();
   add_accel_options(*sub, command->accel);
   sub->add_option("-n,--rays", command->rays, "Number of rays")->check(CLI::Range(1, 1 << 30));
@@ -151,12 +171,17 @@ void add_trace_command(CLI::App& app) {
   sub->add_flag("--any", command->any,
                 "Any-hit (occlusion) queries instead of closest hits; sum_t and id_checksum are "
                 "then n/a (null)");
+  sub->add_flag("--single", command->single,
+                "Time the structure's single-ray call on every ray (Embree: rtcIntersect1 / "
+                "rtcOccluded1) instead of its batched call (Embree: 8-ray packets)");
   sub->add_option("-r,--repeat", command->repeat,
                   "Trace the rays this many times and report the median time")
       ->check(CLI::Range(1, 1000));
-  sub->add_flag("--json", command->json,
-                "Print one JSON object: rays, hits, sum_t, id_checksum, ms, mrays_per_s, build_ms, "
-                "accel, builder, prims, kind, seed, any, repeat, threads, mesh, load_ms, rays_ms");
+  sub->add_flag(
+      "--json", command->json,
+      "Print one JSON object: rays, hits, sum_t, id_checksum, ms, mrays_per_s, cpu_ms, "
+      "mrays_per_cpu_s, build_ms, "
+      "accel, builder, prims, kind, seed, any, single, repeat, threads, mesh, load_ms, rays_ms");
   sub->callback([command] { run(*command); });
 }
 

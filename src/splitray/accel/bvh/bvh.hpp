@@ -2,7 +2,7 @@
 // A BVH over triangles: built as a binary tree of 32-byte nodes (children side by side;
 // what builders, refit and statistics work on), traversed in its
 // eight-wide collapsed form (wide_bvh.hpp: one SIMD slab test per eight children, nearest
-// child first, fixed stack; leaf triangles copied into blocks of four tested at once).
+// child first, fixed stack; leaf triangles copied into blocks of four, tested two at a time).
 // Refitting moves the boxes and triangles for meshes that deform with fixed topology.
 //
 //   Bvh bvh = Bvh::build(triangles, "sbvh", BvhBuildOptions::from(config));

@@ -59,9 +59,9 @@ std::vector<BvhRef> make_prim_refs(std::span<const Triangle> triangles);  // who
 struct BvhBuildOptions {
   float traversal_cost = 15;     // SAH K_T
   float intersection_cost = 20;  // SAH K_I, per block of leaf_block triangles (tested at once)
-  int leaf_block = 4;            // triangles a leaf tests together (the traversal's SIMD width)
+  int leaf_block = 8;            // triangles a leaf tests together (two blocks of four in AVX)
   int min_leaf = 1;              // nodes with this many references or fewer are leaves
-  int max_leaf = 4;              // nodes with more are split whenever they can be
+  int max_leaf = 8;              // nodes with more are split whenever they can be
   int bins = 32;                 // SAH bins per axis for object splits
   int spatial_bins = 16;         // SBVH: bins per axis for spatial splits (as Embree)
   int max_depth = 64;            // at most 64 (the traversal stack)

@@ -1,6 +1,7 @@
-// Collapsing and traversing the eight-wide layout. The slab test is the same sequence of
-// IEEE operations in the AVX and the scalar path (min/max operand order keeps NaN out, as in
-// robust_ray.hpp), so both give the same answers.
+// Collapsing and traversing the eight-wide layout. The slab test of the AVX path (with FMA)
+// and of the scalar path round differently, but both stay within the padding of
+// robust_ray.hpp (min/max operand order keeps NaN out), so both let every ray through to
+// every triangle it may hit, and the answers come from the same watertight triangle test.
 #include "splitray/accel/bvh/wide_bvh.hpp"
 
 #if defined(__SSE__)
@@ -118,7 +119,7 @@ std::uint32_t collapse_node(const Collapse& c, std::uint32_t binary) {
 struct Slab8 {
   int near[3], far[3];
 #if defined(__AVX__)
-  __m256 org_near[3], org_far[3], inv[3];
+  __m256 org_near[3], org_far[3], inv[3];  // org_*: origin times inv (FMA) or the origin
 #endif
   const RobustRay& r;
 
@@ -127,8 +128,13 @@ struct Slab8 {
       near[a] = r.negative[a] ? 3 + a : a;
       far[a] = r.negative[a] ? a : 3 + a;
 #if defined(__AVX__)
+#if defined(__FMA__)
+      org_near[a] = _mm256_set1_ps(r.org_near[a] * r.inv[a]);
+      org_far[a] = _mm256_set1_ps(r.org_far[a] * r.inv[a]);
+#else
       org_near[a] = _mm256_set1_ps(r.org_near[a]);
       org_far[a] = _mm256_set1_ps(r.org_far[a]);
+#endif
       inv[a] = _mm256_set1_ps(r.inv[a]);
 #endif
     }
@@ -139,10 +145,20 @@ struct Slab8 {
 #if defined(__AVX__)
     __m256 t0 = _mm256_set1_ps(tmin), t1 = _mm256_set1_ps(tmax);
     for (int a = 0; a < 3; ++a) {
+#if defined(__FMA__)
+      // plane * inv - org * inv in one rounding: the extra error of rounding org * inv is
+      // below 2^-24 |org inv|, 1/64 of the padding (robust_ray.hpp), so the test stays
+      // conservative; a zero direction component gives NaN, which keeps the slot (safe).
+      const __m256 lo = _mm256_fmsub_ps(_mm256_load_ps(n.planes[near[a]]), inv[a], org_near[a]);
+      const __m256 hi = _mm256_fmsub_ps(_mm256_load_ps(n.planes[far[a]]), inv[a], org_far[a]);
+      t0 = _mm256_max_ps(lo, t0);  // NaN in the first operand keeps t0
+      t1 = _mm256_min_ps(hi, t1);
+#else
       const __m256 lo = _mm256_sub_ps(_mm256_load_ps(n.planes[near[a]]), org_near[a]);
       const __m256 hi = _mm256_sub_ps(_mm256_load_ps(n.planes[far[a]]), org_far[a]);
       t0 = _mm256_max_ps(_mm256_mul_ps(lo, inv[a]), t0);  // NaN in the first operand keeps t0
       t1 = _mm256_min_ps(_mm256_mul_ps(hi, inv[a]), t1);
+#endif
     }
     _mm256_store_ps(t_entry, t0);
     return static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(t0, t1, _CMP_LE_OQ)));
@@ -162,7 +178,8 @@ struct Slab8 {
   }
 };
 
-// Asks for the four cache lines of a node (or the three of a block) before they are needed.
+// Asks for the four cache lines of a node (or the three of a block and the line after it,
+// often the next leaf's) before they are needed.
 inline void prefetch(const void* p) {
 #if defined(__SSE__)
   const char* c = static_cast<const char*>(p);
@@ -181,12 +198,21 @@ struct Watertight4 {
 #if defined(__SSE2__)
   __m128 org[3], sx, sy, sz;  // org[i] = origin[k[i]]
 #endif
+#if defined(__AVX__)
+  __m256 org8[3], sx8, sy8, sz8;
+#endif
   explicit Watertight4(const WatertightRay& ray) : w(ray), k{ray.kx, ray.ky, ray.kz} {
 #if defined(__SSE2__)
     for (int i = 0; i < 3; ++i) org[i] = _mm_set1_ps(ray.org[k[i]]);
     sx = _mm_set1_ps(ray.sx);
     sy = _mm_set1_ps(ray.sy);
     sz = _mm_set1_ps(ray.sz);
+#endif
+#if defined(__AVX__)
+    for (int i = 0; i < 3; ++i) org8[i] = _mm256_set1_ps(ray.org[k[i]]);
+    sx8 = _mm256_set1_ps(ray.sx);
+    sy8 = _mm256_set1_ps(ray.sy);
+    sz8 = _mm256_set1_ps(ray.sz);
 #endif
   }
 
@@ -238,109 +264,156 @@ struct Watertight4 {
     return 0;
 #endif
   }
+
+#if defined(__AVX__)
+  // Two blocks at once (lanes 0-3: b0, 4-7: b1), lane by lane the very same operations.
+  unsigned test2(const TriangleBlock& b0, const TriangleBlock& b1, float tmin, float tmax,
+                 float* t_out, float* u_out, float* v_out, unsigned& scalar) const {
+    const auto row = [&](int vertex, int i) {
+      const int r = 3 * vertex + k[i];
+      const __m256 both = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_load_ps(b0.v[r])),
+                                               _mm_load_ps(b1.v[r]), 1);
+      return _mm256_sub_ps(both, org8[i]);
+    };
+    const __m256 a_x = row(0, 0), a_y = row(0, 1), a_z = row(0, 2);
+    const __m256 b_x = row(1, 0), b_y = row(1, 1), b_z = row(1, 2);
+    const __m256 c_x = row(2, 0), c_y = row(2, 1), c_z = row(2, 2);
+    const __m256 ax = _mm256_sub_ps(a_x, _mm256_mul_ps(sx8, a_z)),
+                 ay = _mm256_sub_ps(a_y, _mm256_mul_ps(sy8, a_z));
+    const __m256 bx = _mm256_sub_ps(b_x, _mm256_mul_ps(sx8, b_z)),
+                 by = _mm256_sub_ps(b_y, _mm256_mul_ps(sy8, b_z));
+    const __m256 cx = _mm256_sub_ps(c_x, _mm256_mul_ps(sx8, c_z)),
+                 cy = _mm256_sub_ps(c_y, _mm256_mul_ps(sy8, c_z));
+    const __m256 u = _mm256_sub_ps(_mm256_mul_ps(cx, by), _mm256_mul_ps(cy, bx));
+    const __m256 v = _mm256_sub_ps(_mm256_mul_ps(ax, cy), _mm256_mul_ps(ay, cx));
+    const __m256 e = _mm256_sub_ps(_mm256_mul_ps(bx, ay), _mm256_mul_ps(by, ax));
+    const __m256 zero = _mm256_setzero_ps();
+    const __m256 on_edge = _mm256_or_ps(
+        _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_EQ_OQ), _mm256_cmp_ps(v, zero, _CMP_EQ_OQ)),
+        _mm256_cmp_ps(e, zero, _CMP_EQ_OQ));
+    scalar = static_cast<unsigned>(_mm256_movemask_ps(on_edge));
+    const __m256 negative = _mm256_or_ps(
+        _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_LT_OQ), _mm256_cmp_ps(v, zero, _CMP_LT_OQ)),
+        _mm256_cmp_ps(e, zero, _CMP_LT_OQ));
+    const __m256 positive = _mm256_or_ps(
+        _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_GT_OQ), _mm256_cmp_ps(v, zero, _CMP_GT_OQ)),
+        _mm256_cmp_ps(e, zero, _CMP_GT_OQ));
+    const __m256 det = _mm256_add_ps(_mm256_add_ps(u, v), e);
+    const __m256 outside = _mm256_or_ps(
+        _mm256_or_ps(_mm256_and_ps(negative, positive), _mm256_cmp_ps(det, zero, _CMP_EQ_OQ)),
+        on_edge);
+    if (_mm256_movemask_ps(outside) == 0xff) return 0;
+    const __m256 az = _mm256_mul_ps(sz8, a_z), bz = _mm256_mul_ps(sz8, b_z),
+                 cz = _mm256_mul_ps(sz8, c_z);
+    const __m256 t_scaled = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(u, az), _mm256_mul_ps(v, bz)),
+                                          _mm256_mul_ps(e, cz));
+    const __m256 inv_det = _mm256_div_ps(_mm256_set1_ps(1.0f), det);
+    const __m256 t = _mm256_mul_ps(t_scaled, inv_det);
+    const __m256 in_range = _mm256_and_ps(_mm256_cmp_ps(t, _mm256_set1_ps(tmin), _CMP_GE_OQ),
+                                          _mm256_cmp_ps(t, _mm256_set1_ps(tmax), _CMP_LE_OQ));
+    _mm256_storeu_ps(t_out, t);
+    _mm256_storeu_ps(u_out, _mm256_mul_ps(v, inv_det));
+    _mm256_storeu_ps(v_out, _mm256_mul_ps(e, inv_det));
+    return static_cast<unsigned>(_mm256_movemask_ps(_mm256_andnot_ps(outside, in_range)));
+  }
+#endif
 };
 
-// One query's traversal, advanced a node or a leaf at a time. Must not move once constructed.
+// One query's traversal, in one loop whose state (current entry, stack, closest hit) lives in
+// locals the compiler keeps in registers. Children hit by the ray are entered nearest first;
+// the others wait on the stack, farther ones lower, and are skipped once behind the closest
+// hit. Returns true when an any-hit query found a hit.
 template <bool AnyHit>
-class Traversal {
- public:
-  Traversal(std::span<const WideNode> nodes, std::span<const TriangleBlock> blocks, const Ray& ray,
-            const Aabb& scene, float magnitude, Hit& hit)
-      : nodes_(nodes),
-        blocks_(blocks),
-        ray_(ray),
-        r_(ray, scene, magnitude),
-        w_(ray),
-        w4_(w_),
-        slab_(r_),
-        hit_(hit) {}
-  Traversal(const Traversal&) = delete;
-  Traversal& operator=(const Traversal&) = delete;
-
-  // Visits the current node or leaf; false once the query is answered.
-  bool step() {
-    if (current_.count == 0) {  // a wide node: enter the nearest hit child, push the others
-      const WideNode& n = nodes_[current_.child];
+bool traverse(std::span<const WideNode> node_span, std::span<const TriangleBlock> block_span,
+              const Ray& ray, const Aabb& scene, float magnitude, Hit& hit) {
+  const WideNode* const nodes = node_span.data();
+  const TriangleBlock* const blocks = block_span.data();
+  const RobustRay r(ray, scene, magnitude);
+  const Slab8 slab(r);
+  const WatertightRay w(ray);
+  const Watertight4 w4(w);
+  const float tmin = ray.tmin;
+  Hit best = hit;  // best.t: the far end of every test (tmax for an any-hit query)
+  Entry stack[kStackSize];
+  int sp = 0;
+  Entry current{0, 0, 0};  // the root
+  for (;;) {
+    if (current.count == 0) {  // a wide node: enter the nearest hit child, push the others
+      const WideNode& n = nodes[current.child];
       alignas(32) float t_entry[kWideWidth];
-      unsigned mask = slab_.test(n, ray_.tmin, hit_.t, t_entry);
+      unsigned mask = slab.test(n, tmin, best.t, t_entry);
+      // Ask for every child that will be visited or pushed at once: the memory loads overlap
+      // instead of waiting for each other when the stack is popped.
+      for (unsigned m = mask; m != 0; m &= m - 1) {
+        const int c = std::countr_zero(m);
+        prefetch(n.count[c] == 0 ? static_cast<const void*>(&nodes[n.child[c]])
+                                 : static_cast<const void*>(&blocks[n.child[c]]));
+      }
       if (mask != 0) {
         int i = std::countr_zero(mask);
         mask &= mask - 1;
         Entry nearest{n.child[i], n.count[i], t_entry[i]};
-        const int base = sp_;
+        const int base = sp;
         while (mask != 0) {  // keep this node's entries ordered: farther ones lower
           i = std::countr_zero(mask);
           mask &= mask - 1;
           Entry e{n.child[i], n.count[i], t_entry[i]};
           if (e.t < nearest.t) std::swap(e, nearest);
-          int j = sp_++;
-          for (; j > base && stack_[j - 1].t < e.t; --j) stack_[j] = stack_[j - 1];
-          stack_[j] = e;
+          int j = sp++;
+          for (; j > base && stack[j - 1].t < e.t; --j) stack[j] = stack[j - 1];
+          stack[j] = e;
         }
-        return enter(nearest);
+        current = nearest;
+        continue;
       }
-    } else if (leaf(current_.child, current_.count)) {
-      occluded_ = true;
-      return false;
+    } else {  // a leaf: its blocks of four triangles, two at a time where there are two
+      const std::uint32_t end = current.child + current.count;
+      for (std::uint32_t b = current.child; b < end;) {
+        alignas(32) float t[2 * kBlockWidth], u[2 * kBlockWidth], v[2 * kBlockWidth];
+        unsigned scalar;
+        const TriangleBlock* pair[2] = {&blocks[b], &blocks[b]};
+        unsigned found;
+#if defined(__AVX__)
+        if (b + 1 < end) {
+          pair[1] = &blocks[b + 1];
+          found = w4.test2(*pair[0], *pair[1], tmin, best.t, t, u, v, scalar);
+          b += 2;
+        } else
+#endif
+        {
+          found = w4.test(*pair[0], tmin, best.t, t, u, v, scalar);
+          b += 1;
+        }
+        while (scalar != 0) {  // edge cases: the scalar test decides in double precision
+          const int lane = std::countr_zero(scalar);
+          scalar &= scalar - 1;
+          if (intersect_triangle(w, pair[lane / kBlockWidth]->triangle(lane % kBlockWidth), tmin,
+                                 best.t, t[lane], u[lane], v[lane]))
+            found |= 1u << lane;
+        }
+        if constexpr (AnyHit) {
+          if (found != 0) return true;
+        } else {
+          while (found != 0) {
+            const int lane = std::countr_zero(found);
+            found &= found - 1;
+            const Hit candidate{t[lane], pair[lane / kBlockWidth]->id[lane % kBlockWidth], u[lane],
+                                v[lane]};
+            if (candidate.closer_than(best)) best = candidate;
+          }
+        }
+      }
     }
     for (;;) {  // the next entry not behind the closest hit
-      if (sp_ == 0) return false;
-      const Entry e = stack_[--sp_];
-      if (e.t <= hit_.t) return enter(e);
+      if (sp == 0) {
+        hit = best;
+        return false;
+      }
+      current = stack[--sp];
+      if (current.t <= best.t) break;
     }
   }
-
-  bool occluded() const { return occluded_; }
-
- private:
-  bool enter(const Entry& e) {
-    current_ = e;
-    prefetch(e.count == 0 ? static_cast<const void*>(&nodes_[e.child])
-                          : static_cast<const void*>(&blocks_[e.child]));
-    return true;
-  }
-
-  // Tests a leaf's blocks; true when an any-hit query is answered.
-  bool leaf(std::uint32_t first, std::uint32_t count) {
-    for (std::uint32_t i = first; i < first + count; ++i) {
-      const TriangleBlock& b = blocks_[i];
-      alignas(16) float t[kBlockWidth], u[kBlockWidth], v[kBlockWidth];
-      unsigned scalar;
-      unsigned found = w4_.test(b, ray_.tmin, AnyHit ? ray_.tmax : hit_.t, t, u, v, scalar);
-      while (scalar != 0) {  // edge cases: the scalar test decides in double precision
-        const int lane = std::countr_zero(scalar);
-        scalar &= scalar - 1;
-        if (intersect_triangle(w_, b.triangle(lane), ray_.tmin, AnyHit ? ray_.tmax : hit_.t,
-                               t[lane], u[lane], v[lane]))
-          found |= 1u << lane;
-      }
-      if constexpr (AnyHit) {
-        if (found != 0) return true;
-      } else {
-        while (found != 0) {
-          const int lane = std::countr_zero(found);
-          found &= found - 1;
-          const Hit candidate{t[lane], b.id[lane], u[lane], v[lane]};
-          if (candidate.closer_than(hit_)) hit_ = candidate;
-        }
-      }
-    }
-    return false;
-  }
-
-  std::span<const WideNode> nodes_;
-  std::span<const TriangleBlock> blocks_;
-  const Ray& ray_;
-  const RobustRay r_;
-  const WatertightRay w_;
-  const Watertight4 w4_;
-  const Slab8 slab_;
-  Hit& hit_;
-  bool occluded_ = false;
-  Entry current_{0, 0, 0};  // the root
-  int sp_ = 0;
-  Entry stack_[kStackSize];
-};
+}
 
 }  // namespace
 
@@ -373,19 +446,14 @@ void WideBvh::refit(std::span<const BvhNode> nodes, std::span<const Triangle> tr
 
 void WideBvh::intersect(const Ray& ray, const Aabb& scene, float magnitude, Hit& hit) const {
   if (nodes_.empty()) return;
-  Traversal<false> traversal(nodes_, blocks_, ray, scene, magnitude, hit);
-  while (traversal.step()) {
-  }
+  traverse<false>(nodes_, blocks_, ray, scene, magnitude, hit);
 }
 
 bool WideBvh::occluded(const Ray& ray, const Aabb& scene, float magnitude) const {
   if (nodes_.empty()) return false;
   Hit hit;
   hit.t = ray.tmax;
-  Traversal<true> traversal(nodes_, blocks_, ray, scene, magnitude, hit);
-  while (traversal.step()) {
-  }
-  return traversal.occluded();
+  return traverse<true>(nodes_, blocks_, ray, scene, magnitude, hit);
 }
 
 }  // namespace splitray

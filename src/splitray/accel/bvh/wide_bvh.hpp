@@ -3,8 +3,9 @@
 // whose boxes are stored axis by axis (32 bytes per child), so that one SIMD slab test checks
 // all eight and a ray needs a third of the dependent memory loads of the binary tree.
 // Collapsing keeps every binary leaf; a leaf's triangles are stored as blocks of four in
-// SIMD rows, tested at once by the watertight test with the very same operations (so the
-// answers are bit-identical to testing them one by one).
+// SIMD rows, tested at once (two blocks in one AVX pass: leaves hold up to eight) by the
+// watertight test with the very same operations (so the answers are bit-identical to testing
+// them one by one).
 #include <cstdint>
 #include <span>
 #include <vector>
