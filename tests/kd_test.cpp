@@ -447,7 +447,12 @@ class NaiveSahBuilder {
         std::sort(positions.begin(), positions.end());
         positions.erase(std::unique(positions.begin(), positions.end()), positions.end());
         for (const float p : positions) {
-          if (!(p > box.lo[axis] && p < box.hi[axis])) continue;
+          // Inside the cell every plane; on its boundary only one that cuts off the triangles
+          // lying in that face into a flat cell (the cell itself must not be flat).
+          const bool inside = p > box.lo[axis] && p < box.hi[axis];
+          const bool on_lo = p == box.lo[axis] && box.lo[axis] < box.hi[axis];
+          const bool on_hi = p == box.hi[axis] && box.lo[axis] < box.hi[axis];
+          if (!inside && !on_lo && !on_hi) continue;
           std::size_t n_below = 0, n_above = 0, n_planar = 0;
           for (const Item& item : items) {
             if (item.box.lo[axis] == p && item.box.hi[axis] == p)
@@ -455,10 +460,13 @@ class NaiveSahBuilder {
             else
               n_below += item.box.lo[axis] < p ? 1 : 0, n_above += item.box.hi[axis] > p ? 1 : 0;
           }
-          const double below_cost = sah_.split(box, axis, p, n_below + n_planar, n_above);
-          if (below_cost < best)
-            best = below_cost, best_axis = axis, best_pos = p, best_below = true;
-          if (n_planar == 0) continue;
+          if (!inside && n_planar == 0) continue;
+          if (!on_hi) {
+            const double below_cost = sah_.split(box, axis, p, n_below + n_planar, n_above);
+            if (below_cost < best)
+              best = below_cost, best_axis = axis, best_pos = p, best_below = true;
+          }
+          if (n_planar == 0 || on_lo) continue;
           const double above_cost = sah_.split(box, axis, p, n_below, n_above + n_planar);
           if (above_cost < best)
             best = above_cost, best_axis = axis, best_pos = p, best_below = false;

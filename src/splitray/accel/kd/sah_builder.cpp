@@ -180,7 +180,7 @@ class SahBuilder {
       for (; e != end && e->pos == pos && e->type() == kPlanar; ++e) ++planars;
       for (; e != end && e->pos == pos && e->type() == kStart; ++e) ++starts;
       n_above -= planars + ends;
-      if (pos > lo && pos < hi) {  // a plane on the cell's boundary cuts off nothing
+      if (pos > lo && pos < hi) {
         const double cost_below = cost(pos, n_below + planars, n_above);
         ++evals;
         if (cost_below < best.cost) best = {cost_below, axis, pos, true};
@@ -189,6 +189,16 @@ class SahBuilder {
           ++evals;
           if (cost_above < best.cost) best = {cost_above, axis, pos, false};
         }
+      } else if (planars > 0 && lo < hi) {
+        // A plane on the cell's boundary cuts off the triangles lying in that face into a flat
+        // cell of their own: the rest of the cell loses them, or is cut off as empty space (a
+        // floor under empty space, a wall of a room). Both children are smaller than the cell
+        // (one is flat, the other has fewer triangles), so such splits always progress.
+        const bool below = pos == lo;
+        const double c =
+            below ? cost(pos, n_below + planars, n_above) : cost(pos, n_below, n_above + planars);
+        ++evals;
+        if (c < best.cost) best = {c, axis, pos, below};
       }
       n_below += starts + planars;
     }
