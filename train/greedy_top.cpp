@@ -7,31 +7,11 @@
 
 namespace splitray::train {
 
-double cell_measure(const Aabb& box, NeuralCost cost, float radius) {
-  if (box.empty()) return 0;
-  const Vec3 e = box.extent();
-  if (cost == NeuralCost::sah)
-    return static_cast<double>(e.x) * e.y + static_cast<double>(e.y) * e.z +
-           static_cast<double>(e.z) * e.x;
-  const double r2 = 2.0 * std::max(0.0f, radius);
-  return (e.x + r2) * (e.y + r2) * (e.z + r2);
-}
-
-namespace {
-
-double scale_of(std::span<const Vec3> samples, const NeuralTopOptions& options) {
-  return options.population > 0 && !samples.empty()
-             ? options.population / static_cast<double>(samples.size())
-             : 1.0;
-}
-
-}  // namespace
-
 NeuralTop greedy_top(std::span<const Vec3> samples, const Aabb& root,
                      const NeuralTopOptions& options) {
   if (options.max_depth < 0) throw Error("greedy_top", "max_depth must not be negative");
-  const double scale = scale_of(samples, options);
-  const double ct = options.traversal_cost, ci = options.intersection_cost;
+  const double scale = neural_sample_scale(samples.size(), options);
+  const double ci = options.intersection_cost;
   NeuralTop top;
   top.nodes.push_back({});
   top.nodes[0].box = root;
@@ -47,7 +27,7 @@ NeuralTop greedy_top(std::span<const Vec3> samples, const Aabb& root,
     for (const std::size_t n : frontier) {
       const Aabb box = top.nodes[n].box;
       const std::vector<std::uint32_t> pts = std::move(active[n]);
-      const double parent = cell_measure(box, options.cost, options.radius);
+      const double parent = neural_cell_measure(box, options.cost, options.radius);
       if (pts.size() < 2 || !(parent > 0)) continue;
       double best = ci * static_cast<double>(pts.size()) * scale;
       int best_axis = -1;
@@ -62,15 +42,8 @@ NeuralTop greedy_top(std::span<const Vec3> samples, const Aabb& root,
           if (coords[i] == coords[i - 1]) continue;
           const float split = coords[i];
           if (!(split > box.lo[axis] && split < box.hi[axis])) continue;
-          Aabb left = box, right = box;
-          left.hi[axis] = split;
-          right.lo[axis] = split;
           const double cost =
-              ct + ci * scale *
-                       (cell_measure(left, options.cost, options.radius) * static_cast<double>(i) +
-                        cell_measure(right, options.cost, options.radius) *
-                            static_cast<double>(coords.size() - i)) /
-                       parent;
+              neural_split_cost(box, axis, split, i, coords.size(), parent, scale, options);
           if (cost < best) {
             best = cost;
             best_axis = axis;
@@ -79,28 +52,7 @@ NeuralTop greedy_top(std::span<const Vec3> samples, const Aabb& root,
         }
       }
       if (best_axis < 0) continue;
-      std::vector<std::uint32_t> below, above;
-      for (const std::uint32_t p : pts)
-        (samples[p][best_axis] < best_split ? below : above).push_back(p);
-      const auto first = static_cast<std::int32_t>(top.nodes.size());
-      top.nodes[n].axis = best_axis;
-      top.nodes[n].split = best_split;
-      top.nodes[n].child[0] = first;
-      top.nodes[n].child[1] = first + 1;
-      Aabb left = box, right = box;
-      left.hi[best_axis] = best_split;
-      right.lo[best_axis] = best_split;
-      for (const Aabb& cell : {left, right}) {
-        top.nodes.push_back({});
-        top.nodes.back().box = cell;
-        next.push_back(top.nodes.size() - 1);
-      }
-      top.nodes[static_cast<std::size_t>(first)].samples = static_cast<std::uint32_t>(below.size());
-      top.nodes[static_cast<std::size_t>(first) + 1].samples =
-          static_cast<std::uint32_t>(above.size());
-      active.resize(top.nodes.size());
-      active[static_cast<std::size_t>(first)] = std::move(below);
-      active[static_cast<std::size_t>(first) + 1] = std::move(above);
+      split_neural_top_node(top, n, best_axis, best_split, pts, samples, active, next);
       top.depth = level + 1;
     }
     std::swap(frontier, next);
@@ -112,7 +64,7 @@ double normalised_top_cost(const NeuralTop& top, std::span<const Vec3> samples,
                            const NeuralTopOptions& options) {
   if (top.nodes.empty()) return 1;
   const double ct = options.traversal_cost, ci = options.intersection_cost;
-  const double scale = scale_of(samples, options);
+  const double scale = neural_sample_scale(samples.size(), options);
   // Counts from the samples themselves (not the nodes' fields), so any top is costed alike.
   std::vector<double> count(top.nodes.size(), 0);
   for (const Vec3& p : samples) {
@@ -128,11 +80,11 @@ double normalised_top_cost(const NeuralTop& top, std::span<const Vec3> samples,
   const std::function<double(std::size_t)> cost = [&](std::size_t n) -> double {
     const NeuralTopNode& node = top.nodes[n];
     if (node.leaf()) return ci * scale * count[n];
-    const double parent = cell_measure(node.box, options.cost, options.radius);
+    const double parent = neural_cell_measure(node.box, options.cost, options.radius);
     const auto l = static_cast<std::size_t>(node.child[0]),
                r = static_cast<std::size_t>(node.child[1]);
-    return ct + (cell_measure(top.nodes[l].box, options.cost, options.radius) * cost(l) +
-                 cell_measure(top.nodes[r].box, options.cost, options.radius) * cost(r)) /
+    return ct + (neural_cell_measure(top.nodes[l].box, options.cost, options.radius) * cost(l) +
+                 neural_cell_measure(top.nodes[r].box, options.cost, options.radius) * cost(r)) /
                     parent;
   };
   const double root_leaf = ci * scale * count[0];

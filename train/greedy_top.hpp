@@ -19,7 +19,4 @@ NeuralTop greedy_top(std::span<const Vec3> samples, const Aabb& root,
 double normalised_top_cost(const NeuralTop& top, std::span<const Vec3> samples,
                            const NeuralTopOptions& options);
 
-// The SAH (half area) or VVH (volume grown by the radius) weight of a cell.
-double cell_measure(const Aabb& box, NeuralCost cost, float radius);
-
 }  // namespace splitray::train

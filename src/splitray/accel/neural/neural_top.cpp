@@ -17,9 +17,9 @@ double thread_cpu_ms() {
   return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) * 1e-6;
 }
 
-// The weight of a cell in Eq. 4: surface area (SAH, Eq. 5) or the volume of the cell grown by
-// the search radius (VVH, Eq. 6). Only ratios are used.
-double cell_measure(const Aabb& box, NeuralCost cost, float radius) {
+}  // namespace
+
+double neural_cell_measure(const Aabb& box, NeuralCost cost, float radius) {
   if (box.empty()) return 0;
   const Vec3 e = box.extent();
   if (cost == NeuralCost::sah)
@@ -29,7 +29,51 @@ double cell_measure(const Aabb& box, NeuralCost cost, float radius) {
   return (e.x + r2) * (e.y + r2) * (e.z + r2);
 }
 
-}  // namespace
+double neural_sample_scale(std::size_t samples, const NeuralTopOptions& options) {
+  return options.population > 0 && samples > 0 ? options.population / static_cast<double>(samples)
+                                               : 1.0;
+}
+
+double neural_split_cost(const Aabb& box, int axis, float split, std::size_t below,
+                         std::size_t total, double parent, double scale,
+                         const NeuralTopOptions& options) {
+  Aabb left = box, right = box;
+  left.hi[axis] = split;
+  right.lo[axis] = split;
+  return options.traversal_cost +
+         options.intersection_cost * scale *
+             (neural_cell_measure(left, options.cost, options.radius) * static_cast<double>(below) +
+              neural_cell_measure(right, options.cost, options.radius) *
+                  static_cast<double>(total - below)) /
+             parent;
+}
+
+void split_neural_top_node(NeuralTop& top, std::size_t n, int axis, float split,
+                           std::span<const std::uint32_t> pts, std::span<const Vec3> samples,
+                           std::vector<std::vector<std::uint32_t>>& active,
+                           std::vector<std::size_t>& next) {
+  std::vector<std::uint32_t> below, above;
+  for (const std::uint32_t p : pts) (samples[p][axis] < split ? below : above).push_back(p);
+  const auto first = static_cast<std::int32_t>(top.nodes.size());
+  NeuralTopNode& node = top.nodes[n];
+  node.axis = axis;
+  node.split = split;
+  node.child[0] = first;
+  node.child[1] = first + 1;
+  Aabb left = node.box, right = node.box;  // copies: top.nodes grows below
+  left.hi[axis] = split;
+  right.lo[axis] = split;
+  for (const Aabb& cell : {left, right}) {
+    top.nodes.push_back({});
+    top.nodes.back().box = cell;
+    next.push_back(top.nodes.size() - 1);
+  }
+  top.nodes[static_cast<std::size_t>(first)].samples = static_cast<std::uint32_t>(below.size());
+  top.nodes[static_cast<std::size_t>(first) + 1].samples = static_cast<std::uint32_t>(above.size());
+  active.resize(top.nodes.size());
+  active[static_cast<std::size_t>(first)] = std::move(below);
+  active[static_cast<std::size_t>(first) + 1] = std::move(above);
+}
 
 std::size_t NeuralTop::leaves() const {
   std::size_t n = 0;
@@ -45,10 +89,8 @@ NeuralTop infer_neural_top(const NeuralModel& model, std::span<const Vec3> sampl
   const double cpu_start = thread_cpu_ms();
   const int depth =
       options.max_depth > 0 ? std::min(options.max_depth, model.depth()) : model.depth();
-  const double scale = options.population > 0 && !samples.empty()
-                           ? options.population / static_cast<double>(samples.size())
-                           : 1.0;
-  const double ct = options.traversal_cost, ci = options.intersection_cost;
+  const double scale = neural_sample_scale(samples.size(), options);
+  const double ci = options.intersection_cost;
 
   NeuralTop top;
   std::vector<std::vector<std::uint32_t>> active(1);  // sample indices per node
@@ -70,7 +112,8 @@ NeuralTop infer_neural_top(const NeuralModel& model, std::span<const Vec3> sampl
     offsets.assign(1, 0);
     for (const std::size_t n : frontier) {
       const std::vector<std::uint32_t>& pts = active[n];
-      if (pts.size() < 2 || !(cell_measure(top.nodes[n].box, options.cost, options.radius) > 0))
+      if (pts.size() < 2 ||
+          !(neural_cell_measure(top.nodes[n].box, options.cost, options.radius) > 0))
         continue;
       Aabb t;
       for (const std::uint32_t p : pts) t.extend(samples[p]);
@@ -94,7 +137,7 @@ NeuralTop infer_neural_top(const NeuralModel& model, std::span<const Vec3> sampl
       const Aabb box = top.nodes[n].box;  // copies: top.nodes grows below
       const std::vector<std::uint32_t> pts = std::move(active[n]);
       active[n].clear();
-      const double parent = cell_measure(box, options.cost, options.radius);
+      const double parent = neural_cell_measure(box, options.cost, options.radius);
       double best = ci * static_cast<double>(pts.size()) * scale;  // the leaf (Eq. 4, q)
       int best_axis = -1;
       float best_split = 0;
@@ -107,15 +150,8 @@ NeuralTop infer_neural_top(const NeuralModel& model, std::span<const Vec3> sampl
         if (!(split > box.lo[axis] && split < box.hi[axis])) continue;
         std::size_t below = 0;
         for (const std::uint32_t p : pts) below += samples[p][axis] < split ? 1 : 0;
-        Aabb left = box, right = box;
-        left.hi[axis] = split;
-        right.lo[axis] = split;
-        const double cost = ct + ci * scale *
-                                     (cell_measure(left, options.cost, options.radius) *
-                                          static_cast<double>(below) +
-                                      cell_measure(right, options.cost, options.radius) *
-                                          static_cast<double>(pts.size() - below)) /
-                                     parent;
+        const double cost =
+            neural_split_cost(box, axis, split, below, pts.size(), parent, scale, options);
         if (cost < best) {
           best = cost;
           best_axis = axis;
@@ -123,29 +159,7 @@ NeuralTop infer_neural_top(const NeuralModel& model, std::span<const Vec3> sampl
         }
       }
       if (best_axis < 0) continue;
-
-      std::vector<std::uint32_t> below, above;
-      for (const std::uint32_t p : pts)
-        (samples[p][best_axis] < best_split ? below : above).push_back(p);
-      const auto first = static_cast<std::int32_t>(top.nodes.size());
-      NeuralTopNode& node = top.nodes[n];
-      node.axis = best_axis;
-      node.split = best_split;
-      node.child[0] = first;
-      node.child[1] = first + 1;
-      Aabb left = box, right = box;
-      left.hi[best_axis] = best_split;
-      right.lo[best_axis] = best_split;
-      for (const Aabb& cell : {left, right}) {
-        top.nodes.push_back({});
-        top.nodes.back().box = cell;
-        next.push_back(top.nodes.size() - 1);
-      }
-      top.nodes[static_cast<std::size_t>(first)].samples = static_cast<std::uint32_t>(below.size());
-      top.nodes[static_cast<std::size_t>(first) + 1].samples =
-          static_cast<std::uint32_t>(above.size());
-      active.push_back(std::move(below));
-      active.push_back(std::move(above));
+      split_neural_top_node(top, n, best_axis, best_split, pts, samples, active, next);
       top.depth = level + 1;
     }
     std::swap(frontier, next);

@@ -52,4 +52,24 @@ struct NeuralTop {
 NeuralTop infer_neural_top(const NeuralModel& model, std::span<const Vec3> samples,
                            const Aabb& root, const NeuralTopOptions& options);
 
+// The pieces the inferred top shares with the greedy top that training compares against
+// (train/greedy_top.*), so that both are costed and built alike:
+// the weight of a cell in Eq. 4: surface area (SAH, Eq. 5) or the volume of the cell grown by
+// the search radius (VVH, Eq. 6); only ratios are used.
+double neural_cell_measure(const Aabb& box, NeuralCost cost, float radius);
+// N / M: sample counts scaled to the full input (1 without a population).
+double neural_sample_scale(std::size_t samples, const NeuralTopOptions& options);
+// Eq. 4 of cutting `box` (weight `parent`) at `split` on `axis` with `below` of `total` samples
+// below the plane, counts scaled by `scale`.
+double neural_split_cost(const Aabb& box, int axis, float split, std::size_t below,
+                         std::size_t total, double parent, double scale,
+                         const NeuralTopOptions& options);
+// Makes node `n` interior at (axis, split) with two new child cells: `pts`, the node's active
+// samples, are divided between them (coordinate < split below) into `active` (one list per
+// node), and the children's indices are appended to `next`.
+void split_neural_top_node(NeuralTop& top, std::size_t n, int axis, float split,
+                           std::span<const std::uint32_t> pts, std::span<const Vec3> samples,
+                           std::vector<std::vector<std::uint32_t>>& active,
+                           std::vector<std::size_t>& next);
+
 }  // namespace splitray
