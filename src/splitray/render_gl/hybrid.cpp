@@ -2,10 +2,9 @@
 
 #include <cmath>
 #include <future>
+#include <glm/gtc/type_ptr.hpp>
 #include <optional>
 #include <string>
-
-#include <glm/gtc/type_ptr.hpp>
 
 #include "splitray/core/errors.hpp"
 #include "splitray/core/parallel.hpp"
@@ -39,9 +38,9 @@ struct ShadowMap {
   int size = 0;
   GLuint depth = 0, flag = 0;
   GLuint fbo[6] = {};
-  glm::mat4 matrix{1.0f};  // directional lights
+  glm::mat4 matrix{1.0f};            // directional lights
   std::array<glm::mat4, 6> faces{};  // of this frame: matrix, or the cube's faces
-  float range = 1;         // point lights
+  float range = 1;                   // point lights
   float normal_offset = 0;
 };
 
@@ -79,7 +78,8 @@ void check_options(const HybridOptions& o) {
                               "x" + std::to_string(o.height));
   if (o.max_depth < 0) throw Error("--max-depth", "must be 0 or more");
   if (o.blur_kernel < 1 || o.blur_kernel % 2 == 0 || o.blur_kernel > 31)
-    throw Error("--blur-kernel", "must be odd and in [1, 31], got " + std::to_string(o.blur_kernel));
+    throw Error("--blur-kernel",
+                "must be odd and in [1, 31], got " + std::to_string(o.blur_kernel));
   if (o.shadow_map_size < 16 || o.shadow_map_size > 8192)
     throw Error("--shadow-map-size", "must be in [16, 8192]");
 }
@@ -102,8 +102,8 @@ struct HybridRenderer::Impl {
   GLuint visibility_tex = 0, cpu_tex = 0;
   GLuint queries[5] = {};
   Slot slots[2];
-  std::size_t submitted = 0;   // frames submitted since the last finish()
-  std::future<void> pending;   // the CPU pass of the last frame submitted (interleaved)
+  std::size_t submitted = 0;  // frames submitted since the last finish()
+  std::future<void> pending;  // the CPU pass of the last frame submitted (interleaved)
 
   Impl(const Scene& s, const HybridOptions& o) : scene(s), options(o) {
     check_options(o);
@@ -121,8 +121,8 @@ struct HybridRenderer::Impl {
     glGetIntegerv(GL_MAJOR_VERSION, &major);
     glGetIntegerv(GL_MINOR_VERSION, &minor);
     if (major * 10 + minor < 45)
-      throw Error("--mode hybrid", std::string("needs OpenGL 4.5, the context has ") +
-                                       (version ? version : "none"));
+      throw Error("--mode hybrid",
+                  std::string("needs OpenGL 4.5, the context has ") + (version ? version : "none"));
     geometry = make_geometry(std::move(flat), nullptr);
     upload_materials();
     shadow = Program("scene.vert.glsl", "shadow.frag.glsl");
@@ -138,8 +138,8 @@ struct HybridRenderer::Impl {
 
   ~Impl() {
     glDeleteQueries(5, queries);
-    GLuint textures[] = {id_tex, mask_tex, depth_tex, boundary_tex, final_tex, final_depth,
-                         visibility_tex, cpu_tex};
+    GLuint textures[] = {id_tex,    mask_tex,    depth_tex,      boundary_tex,
+                         final_tex, final_depth, visibility_tex, cpu_tex};
     glDeleteTextures(8, textures);
     GLuint fbos[] = {id_fbo, blur_fbo, final_fbo};
     glDeleteFramebuffers(3, fbos);
@@ -156,7 +156,8 @@ struct HybridRenderer::Impl {
   // The hierarchy (built by `build`, or make_accel from the options) and the vertex buffer of
   // `flat`.
   std::shared_ptr<Geometry> make_geometry(
-      FlatScene flat, const std::function<std::unique_ptr<Accel>(std::span<const Triangle>)>& build) {
+      FlatScene flat,
+      const std::function<std::unique_ptr<Accel>(std::span<const Triangle>)>& build) {
     auto g = std::make_shared<Geometry>();
     g->flat = std::move(flat);
     g->accel = build ? build(g->flat.triangles)
@@ -193,7 +194,7 @@ struct HybridRenderer::Impl {
     glVertexArrayVertexBuffer(vao, 0, g.vbo, 0, sizeof(Vertex));
     for (GLuint a = 0; a < 3; ++a) {
       glEnableVertexArrayAttrib(vao, a);
-      glVertexArrayAttribFormat(vao, a, 3, GL_FLOAT, GL_FALSE, a * 3 * sizeof(float));
+      glVertexArrayAttribFormat(vao, a, 3, GL_FLOAT, GL_FALSE, a * GLuint{3 * sizeof(float)});
       glVertexArrayAttribBinding(vao, a, 0);
     }
     glEnableVertexArrayAttrib(vao, 3);
@@ -341,7 +342,8 @@ struct HybridRenderer::Impl {
       if (m.cube) {
         float range = 0;
         for (int c = 0; c < 8; ++c) {
-          const Vec3 corner{(c & 1) ? bounds.hi.x : bounds.lo.x, (c & 2) ? bounds.hi.y : bounds.lo.y,
+          const Vec3 corner{(c & 1) ? bounds.hi.x : bounds.lo.x,
+                            (c & 2) ? bounds.hi.y : bounds.lo.y,
                             (c & 4) ? bounds.hi.z : bounds.lo.z};
           range = std::max(range, length(corner - light.position));
         }
@@ -352,7 +354,8 @@ struct HybridRenderer::Impl {
         glProgramUniform1f(program.id(), program.uniform("u_range"), m.range);
         glDisable(GL_POLYGON_OFFSET_FILL);
       } else {
-        m.matrix = gl::directional_light_matrix(camera, aspect, light.direction, bounds, options.lispsm);
+        m.matrix =
+            gl::directional_light_matrix(camera, aspect, light.direction, bounds, options.lispsm);
         matrices[0] = m.matrix;
         glEnable(GL_POLYGON_OFFSET_FILL);
         glPolygonOffset(2.0f, 4.0f);
@@ -370,12 +373,17 @@ struct HybridRenderer::Impl {
       glDisable(GL_POLYGON_OFFSET_FILL);
       const float offset = (m.cube ? 2.0f : 1.5f) * texel;
       m.normal_offset = offset;
-      glProgramUniform1f(id.id(), id.uniform(("u_normal_offset[" + std::to_string(i) + "]").c_str()), offset);
-      glProgramUniform1f(id.id(), id.uniform(("u_light_range[" + std::to_string(i) + "]").c_str()), m.range);
-      glProgramUniformMatrix4fv(id.id(), id.uniform(("u_light_matrix[" + std::to_string(i) + "]").c_str()),
+      glProgramUniform1f(
+          id.id(), id.uniform(("u_normal_offset[" + std::to_string(i) + "]").c_str()), offset);
+      glProgramUniform1f(id.id(), id.uniform(("u_light_range[" + std::to_string(i) + "]").c_str()),
+                         m.range);
+      glProgramUniformMatrix4fv(id.id(),
+                                id.uniform(("u_light_matrix[" + std::to_string(i) + "]").c_str()),
                                 1, GL_FALSE, glm::value_ptr(m.matrix));
-      glBindTextureUnit(static_cast<GLuint>((m.cube ? kUnitCube : kUnitMap) + static_cast<int>(i)), m.depth);
-      glBindTextureUnit(static_cast<GLuint>((m.cube ? kUnitCubeFlag : kUnitFlag) + static_cast<int>(i)), m.flag);
+      glBindTextureUnit(static_cast<GLuint>((m.cube ? kUnitCube : kUnitMap) + static_cast<int>(i)),
+                        m.depth);
+      glBindTextureUnit(
+          static_cast<GLuint>((m.cube ? kUnitCubeFlag : kUnitFlag) + static_cast<int>(i)), m.flag);
     }
   }
 
@@ -403,7 +411,8 @@ struct HybridRenderer::Impl {
     glClearNamedFramebufferfv(id_fbo, GL_COLOR, 1, one);
     glClearNamedFramebufferfv(id_fbo, GL_DEPTH, 0, &clear_depth);
     id.use();
-    glProgramUniformMatrix4fv(id.id(), id.uniform("u_matrix"), 1, GL_FALSE, glm::value_ptr(view_projection));
+    glProgramUniformMatrix4fv(id.id(), id.uniform("u_matrix"), 1, GL_FALSE,
+                              glm::value_ptr(view_projection));
     glProgramUniform3f(id.id(), id.uniform("u_eye"), camera.eye.x, camera.eye.y, camera.eye.z);
     glEnable(GL_DEPTH_TEST);
     draw_scene(g);
@@ -426,9 +435,11 @@ struct HybridRenderer::Impl {
     std::vector<std::array<float, 4>> mask(n);
     std::vector<std::array<std::uint8_t, 4>> boundary(n);
     glPixelStorei(GL_PACK_ALIGNMENT, 1);
-    glGetTextureImage(id_tex, 0, GL_RED_INTEGER, GL_UNSIGNED_INT, static_cast<GLsizei>(n * 4), ids.data());
+    glGetTextureImage(id_tex, 0, GL_RED_INTEGER, GL_UNSIGNED_INT, static_cast<GLsizei>(n * 4),
+                      ids.data());
     glGetTextureImage(mask_tex, 0, GL_RGBA, GL_FLOAT, static_cast<GLsizei>(n * 16), mask.data());
-    glGetTextureImage(boundary_tex, 0, GL_RGBA, GL_UNSIGNED_BYTE, static_cast<GLsizei>(n * 4), boundary.data());
+    glGetTextureImage(boundary_tex, 0, GL_RGBA, GL_UNSIGNED_BYTE, static_cast<GLsizei>(n * 4),
+                      boundary.data());
     slot.input.ids = flip(ids, w, h);
     slot.input.mask = flip(mask, w, h);
     slot.input.boundary = flip(boundary, w, h);
@@ -456,7 +467,8 @@ struct HybridRenderer::Impl {
       out.flag.resize(n);
       glGetTextureImage(m.depth, 0, GL_DEPTH_COMPONENT, GL_FLOAT, static_cast<GLsizei>(n * 4),
                         out.depth.data());
-      glGetTextureImage(m.flag, 0, GL_RED, GL_UNSIGNED_BYTE, static_cast<GLsizei>(n), out.flag.data());
+      glGetTextureImage(m.flag, 0, GL_RED, GL_UNSIGNED_BYTE, static_cast<GLsizei>(n),
+                        out.flag.data());
     }
   }
 
@@ -491,9 +503,11 @@ struct HybridRenderer::Impl {
     glClearNamedFramebufferfv(final_fbo, GL_DEPTH, 0, &clear_depth);
     composite.use();
     const Camera& camera = slot.input.camera;
-    glProgramUniformMatrix4fv(composite.id(), composite.uniform("u_matrix"), 1, GL_FALSE,
-                              glm::value_ptr(gl::camera_matrix(camera, w, h, slot.geometry->bounds)));
-    glProgramUniform3f(composite.id(), composite.uniform("u_eye"), camera.eye.x, camera.eye.y, camera.eye.z);
+    glProgramUniformMatrix4fv(
+        composite.id(), composite.uniform("u_matrix"), 1, GL_FALSE,
+        glm::value_ptr(gl::camera_matrix(camera, w, h, slot.geometry->bounds)));
+    glProgramUniform3f(composite.id(), composite.uniform("u_eye"), camera.eye.x, camera.eye.y,
+                       camera.eye.z);
     glBindTextureUnit(0, visibility_tex);
     glBindTextureUnit(1, cpu_tex);
     glEnable(GL_DEPTH_TEST);
@@ -508,7 +522,8 @@ struct HybridRenderer::Impl {
     f.pass_ms[3] = slot.output.ms;
     f.pass_ms[4] = query_ms(4);
     f.image = Image(w, h);
-    for (std::size_t i = 0; i < n; ++i) f.image.pixels[i] = Vec3{pixels[i][0], pixels[i][1], pixels[i][2]};
+    for (std::size_t i = 0; i < n; ++i)
+      f.image.pixels[i] = Vec3{pixels[i][0], pixels[i][1], pixels[i][2]};
     f.cpu_rays = slot.output.rays;
     f.boundary_rays = slot.output.boundary_rays;
     f.map_answers = slot.output.map_answers;

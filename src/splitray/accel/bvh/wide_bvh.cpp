@@ -183,7 +183,7 @@ struct Slab8 {
 inline void prefetch(const void* p) {
 #if defined(__SSE__)
   const char* c = static_cast<const char*>(p);
-  for (int line = 0; line < 4; ++line) _mm_prefetch(c + 64 * line, _MM_HINT_T0);
+  for (std::ptrdiff_t line = 0; line < 4; ++line) _mm_prefetch(c + 64 * line, _MM_HINT_T0);
 #else
   (void)p;
 #endif

@@ -262,7 +262,7 @@ class EmbreeAccel final : public EmbreeScene {
     for (std::size_t i = 0; i < triangles.size(); ++i) {
       for (int k = 0; k < 3; ++k) {
         const Vec3 p = triangles[i].vertex(k);
-        float* out = vertices_ + 9 * i + 3 * k;
+        float* out = vertices_ + 9 * i + 3 * static_cast<std::size_t>(k);
         out[0] = p.x;
         out[1] = p.y;
         out[2] = p.z;

@@ -60,7 +60,8 @@ class WideWalk {
         leaf_ = view_.leaves[ref_ & ~KdWideTree::kLeafRef];
         const char* rows = reinterpret_cast<const char*>(view_.rows->leaf(leaf_.first));
         const char* end = rows + 9 * sizeof(float) * std::size_t{leaf_.count};
-        for (const char* line = rows; line < end && line < rows + 8 * 64; line += 64)
+        for (const char* line = rows; line < end && line < rows + std::ptrdiff_t{512};
+             line += 64)  // 8 lines
           _mm_prefetch(line, _MM_HINT_T0);
         leaf_ready_ = true;
         return false;
