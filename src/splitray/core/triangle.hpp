@@ -31,13 +31,14 @@ struct WatertightRay {
   float sx, sy, sz;
 
   explicit WatertightRay(const Ray& ray) : org(ray.org) {
+    const float d[3] = {ray.dir.x, ray.dir.y, ray.dir.z};  // indexed without branches
     kz = max_axis(abs(ray.dir));
     kx = kz == 2 ? 0 : kz + 1;
     ky = kx == 2 ? 0 : kx + 1;
-    if (ray.dir[kz] < 0) std::swap(kx, ky);  // keep the winding of the triangles
-    sx = ray.dir[kx] / ray.dir[kz];
-    sy = ray.dir[ky] / ray.dir[kz];
-    sz = 1.0f / ray.dir[kz];
+    if (d[kz] < 0) std::swap(kx, ky);  // keep the winding of the triangles
+    sx = d[kx] / d[kz];
+    sy = d[ky] / d[kz];
+    sz = 1.0f / d[kz];
   }
 };
 

@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <bit>
 #include <limits>
+#include <optional>
 
 #include "splitray/accel/bvh/robust_ray.hpp"
 
@@ -178,50 +179,111 @@ struct Slab8 {
   }
 };
 
-// Asks for the four cache lines of a node (or the three of a block and the line after it,
-// often the next leaf's) before they are needed.
+// Asks for the cache lines of a node, or of a leaf's first block, before they are needed.
+template <std::size_t kBytes>
 inline void prefetch(const void* p) {
 #if defined(__SSE__)
   const char* c = static_cast<const char*>(p);
-  for (std::ptrdiff_t line = 0; line < 4; ++line) _mm_prefetch(c + 64 * line, _MM_HINT_T0);
+  for (std::size_t line = 0; line < kBytes; line += 64) _mm_prefetch(c + line, _MM_HINT_T0);
 #else
   (void)p;
 #endif
 }
 
-// The watertight test of triangle.hpp on four triangles at once: the same IEEE operations in
-// the same order, lane by lane. Lanes where an edge function is exactly zero (decided in
-// double precision by the scalar test) are returned in `scalar` and left to that test.
-struct Watertight4 {
-  const WatertightRay& w;
+// The watertight test of triangle.hpp on the eight triangles of a block at once: the same
+// IEEE operations in the same order, lane by lane (AVX: all eight; SSE: four and four).
+// Lanes where an edge function is exactly zero (decided in double precision by the scalar
+// test) are returned in `scalar` and left to that test.
+struct WatertightBlock {
   int k[3];  // kx, ky, kz
-#if defined(__SSE2__)
-  __m128 org[3], sx, sy, sz;  // org[i] = origin[k[i]]
-#endif
 #if defined(__AVX__)
-  __m256 org8[3], sx8, sy8, sz8;
+  __m256 org[3], sx, sy, sz;  // org[i] = origin[k[i]]
+#elif defined(__SSE2__)
+  __m128 org[3], sx, sy, sz;
 #endif
-  explicit Watertight4(const WatertightRay& ray) : w(ray), k{ray.kx, ray.ky, ray.kz} {
-#if defined(__SSE2__)
-    for (int i = 0; i < 3; ++i) org[i] = _mm_set1_ps(ray.org[k[i]]);
+  explicit WatertightBlock(const WatertightRay& ray) : k{ray.kx, ray.ky, ray.kz} {
+    const float o[3] = {ray.org.x, ray.org.y, ray.org.z};  // indexed without branches
+#if defined(__AVX__)
+    for (int i = 0; i < 3; ++i) org[i] = _mm256_set1_ps(o[k[i]]);
+    sx = _mm256_set1_ps(ray.sx);
+    sy = _mm256_set1_ps(ray.sy);
+    sz = _mm256_set1_ps(ray.sz);
+#elif defined(__SSE2__)
+    for (int i = 0; i < 3; ++i) org[i] = _mm_set1_ps(o[k[i]]);
     sx = _mm_set1_ps(ray.sx);
     sy = _mm_set1_ps(ray.sy);
     sz = _mm_set1_ps(ray.sz);
-#endif
-#if defined(__AVX__)
-    for (int i = 0; i < 3; ++i) org8[i] = _mm256_set1_ps(ray.org[k[i]]);
-    sx8 = _mm256_set1_ps(ray.sx);
-    sy8 = _mm256_set1_ps(ray.sy);
-    sz8 = _mm256_set1_ps(ray.sz);
+#else
+    (void)o;
 #endif
   }
 
   // Bit i: lane i hits with tmin <= t <= tmax (t, u, v stored).
   unsigned test(const TriangleBlock& b, float tmin, float tmax, float* t_out, float* u_out,
                 float* v_out, unsigned& scalar) const {
-#if defined(__SSE2__)
+#if defined(__AVX__)
     const auto row = [&](int vertex, int i) {
-      return _mm_sub_ps(_mm_load_ps(b.v[3 * vertex + k[i]]), org[i]);
+      return _mm256_sub_ps(_mm256_load_ps(b.v[3 * vertex + k[i]]), org[i]);
+    };
+    const __m256 a_x = row(0, 0), a_y = row(0, 1), a_z = row(0, 2);
+    const __m256 b_x = row(1, 0), b_y = row(1, 1), b_z = row(1, 2);
+    const __m256 c_x = row(2, 0), c_y = row(2, 1), c_z = row(2, 2);
+    const __m256 ax = _mm256_sub_ps(a_x, _mm256_mul_ps(sx, a_z)),
+                 ay = _mm256_sub_ps(a_y, _mm256_mul_ps(sy, a_z));
+    const __m256 bx = _mm256_sub_ps(b_x, _mm256_mul_ps(sx, b_z)),
+                 by = _mm256_sub_ps(b_y, _mm256_mul_ps(sy, b_z));
+    const __m256 cx = _mm256_sub_ps(c_x, _mm256_mul_ps(sx, c_z)),
+                 cy = _mm256_sub_ps(c_y, _mm256_mul_ps(sy, c_z));
+    const __m256 u = _mm256_sub_ps(_mm256_mul_ps(cx, by), _mm256_mul_ps(cy, bx));
+    const __m256 v = _mm256_sub_ps(_mm256_mul_ps(ax, cy), _mm256_mul_ps(ay, cx));
+    const __m256 e = _mm256_sub_ps(_mm256_mul_ps(bx, ay), _mm256_mul_ps(by, ax));
+    const __m256 zero = _mm256_setzero_ps();
+    const __m256 on_edge = _mm256_or_ps(
+        _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_EQ_OQ), _mm256_cmp_ps(v, zero, _CMP_EQ_OQ)),
+        _mm256_cmp_ps(e, zero, _CMP_EQ_OQ));
+    scalar = static_cast<unsigned>(_mm256_movemask_ps(on_edge));
+    const __m256 negative = _mm256_or_ps(
+        _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_LT_OQ), _mm256_cmp_ps(v, zero, _CMP_LT_OQ)),
+        _mm256_cmp_ps(e, zero, _CMP_LT_OQ));
+    const __m256 positive = _mm256_or_ps(
+        _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_GT_OQ), _mm256_cmp_ps(v, zero, _CMP_GT_OQ)),
+        _mm256_cmp_ps(e, zero, _CMP_GT_OQ));
+    const __m256 det = _mm256_add_ps(_mm256_add_ps(u, v), e);
+    const __m256 outside = _mm256_or_ps(
+        _mm256_or_ps(_mm256_and_ps(negative, positive), _mm256_cmp_ps(det, zero, _CMP_EQ_OQ)),
+        on_edge);
+    if (_mm256_movemask_ps(outside) == 0xff) return 0;
+    const __m256 az = _mm256_mul_ps(sz, a_z), bz = _mm256_mul_ps(sz, b_z),
+                 cz = _mm256_mul_ps(sz, c_z);
+    const __m256 t_scaled = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(u, az), _mm256_mul_ps(v, bz)),
+                                          _mm256_mul_ps(e, cz));
+    const __m256 inv_det = _mm256_div_ps(_mm256_set1_ps(1.0f), det);
+    const __m256 t = _mm256_mul_ps(t_scaled, inv_det);
+    const __m256 in_range = _mm256_and_ps(_mm256_cmp_ps(t, _mm256_set1_ps(tmin), _CMP_GE_OQ),
+                                          _mm256_cmp_ps(t, _mm256_set1_ps(tmax), _CMP_LE_OQ));
+    _mm256_store_ps(t_out, t);
+    _mm256_store_ps(u_out, _mm256_mul_ps(v, inv_det));
+    _mm256_store_ps(v_out, _mm256_mul_ps(e, inv_det));
+    return static_cast<unsigned>(_mm256_movemask_ps(_mm256_andnot_ps(outside, in_range)));
+#elif defined(__SSE2__)
+    unsigned edge_lo, edge_hi;
+    const unsigned lo = test4(b, 0, tmin, tmax, t_out, u_out, v_out, edge_lo);
+    const unsigned hi = test4(b, 4, tmin, tmax, t_out + 4, u_out + 4, v_out + 4, edge_hi);
+    scalar = edge_lo | edge_hi << 4;
+    return lo | hi << 4;
+#else
+    (void)b, (void)tmin, (void)tmax, (void)t_out, (void)u_out, (void)v_out;
+    scalar = (1u << kBlockWidth) - 1;
+    return 0;
+#endif
+  }
+
+#if defined(__SSE2__) && !defined(__AVX__)
+  // Lanes first..first + 3 of the block.
+  unsigned test4(const TriangleBlock& b, int first, float tmin, float tmax, float* t_out,
+                 float* u_out, float* v_out, unsigned& scalar) const {
+    const auto row = [&](int vertex, int i) {
+      return _mm_sub_ps(_mm_load_ps(b.v[3 * vertex + k[i]] + first), org[i]);
     };
     const __m128 a_x = row(0, 0), a_y = row(0, 1), a_z = row(0, 2);
     const __m128 b_x = row(1, 0), b_y = row(1, 1), b_z = row(1, 2);
@@ -258,63 +320,6 @@ struct Watertight4 {
     _mm_storeu_ps(u_out, _mm_mul_ps(v, inv_det));
     _mm_storeu_ps(v_out, _mm_mul_ps(e, inv_det));
     return static_cast<unsigned>(_mm_movemask_ps(_mm_andnot_ps(outside, in_range)));
-#else
-    (void)tmin, (void)tmax, (void)b, (void)t_out, (void)u_out, (void)v_out;
-    scalar = (1u << kBlockWidth) - 1;
-    return 0;
-#endif
-  }
-
-#if defined(__AVX__)
-  // Two blocks at once (lanes 0-3: b0, 4-7: b1), lane by lane the very same operations.
-  unsigned test2(const TriangleBlock& b0, const TriangleBlock& b1, float tmin, float tmax,
-                 float* t_out, float* u_out, float* v_out, unsigned& scalar) const {
-    const auto row = [&](int vertex, int i) {
-      const int r = 3 * vertex + k[i];
-      const __m256 both = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_load_ps(b0.v[r])),
-                                               _mm_load_ps(b1.v[r]), 1);
-      return _mm256_sub_ps(both, org8[i]);
-    };
-    const __m256 a_x = row(0, 0), a_y = row(0, 1), a_z = row(0, 2);
-    const __m256 b_x = row(1, 0), b_y = row(1, 1), b_z = row(1, 2);
-    const __m256 c_x = row(2, 0), c_y = row(2, 1), c_z = row(2, 2);
-    const __m256 ax = _mm256_sub_ps(a_x, _mm256_mul_ps(sx8, a_z)),
-                 ay = _mm256_sub_ps(a_y, _mm256_mul_ps(sy8, a_z));
-    const __m256 bx = _mm256_sub_ps(b_x, _mm256_mul_ps(sx8, b_z)),
-                 by = _mm256_sub_ps(b_y, _mm256_mul_ps(sy8, b_z));
-    const __m256 cx = _mm256_sub_ps(c_x, _mm256_mul_ps(sx8, c_z)),
-                 cy = _mm256_sub_ps(c_y, _mm256_mul_ps(sy8, c_z));
-    const __m256 u = _mm256_sub_ps(_mm256_mul_ps(cx, by), _mm256_mul_ps(cy, bx));
-    const __m256 v = _mm256_sub_ps(_mm256_mul_ps(ax, cy), _mm256_mul_ps(ay, cx));
-    const __m256 e = _mm256_sub_ps(_mm256_mul_ps(bx, ay), _mm256_mul_ps(by, ax));
-    const __m256 zero = _mm256_setzero_ps();
-    const __m256 on_edge = _mm256_or_ps(
-        _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_EQ_OQ), _mm256_cmp_ps(v, zero, _CMP_EQ_OQ)),
-        _mm256_cmp_ps(e, zero, _CMP_EQ_OQ));
-    scalar = static_cast<unsigned>(_mm256_movemask_ps(on_edge));
-    const __m256 negative = _mm256_or_ps(
-        _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_LT_OQ), _mm256_cmp_ps(v, zero, _CMP_LT_OQ)),
-        _mm256_cmp_ps(e, zero, _CMP_LT_OQ));
-    const __m256 positive = _mm256_or_ps(
-        _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_GT_OQ), _mm256_cmp_ps(v, zero, _CMP_GT_OQ)),
-        _mm256_cmp_ps(e, zero, _CMP_GT_OQ));
-    const __m256 det = _mm256_add_ps(_mm256_add_ps(u, v), e);
-    const __m256 outside = _mm256_or_ps(
-        _mm256_or_ps(_mm256_and_ps(negative, positive), _mm256_cmp_ps(det, zero, _CMP_EQ_OQ)),
-        on_edge);
-    if (_mm256_movemask_ps(outside) == 0xff) return 0;
-    const __m256 az = _mm256_mul_ps(sz8, a_z), bz = _mm256_mul_ps(sz8, b_z),
-                 cz = _mm256_mul_ps(sz8, c_z);
-    const __m256 t_scaled = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(u, az), _mm256_mul_ps(v, bz)),
-                                          _mm256_mul_ps(e, cz));
-    const __m256 inv_det = _mm256_div_ps(_mm256_set1_ps(1.0f), det);
-    const __m256 t = _mm256_mul_ps(t_scaled, inv_det);
-    const __m256 in_range = _mm256_and_ps(_mm256_cmp_ps(t, _mm256_set1_ps(tmin), _CMP_GE_OQ),
-                                          _mm256_cmp_ps(t, _mm256_set1_ps(tmax), _CMP_LE_OQ));
-    _mm256_storeu_ps(t_out, t);
-    _mm256_storeu_ps(u_out, _mm256_mul_ps(v, inv_det));
-    _mm256_storeu_ps(v_out, _mm256_mul_ps(e, inv_det));
-    return static_cast<unsigned>(_mm256_movemask_ps(_mm256_andnot_ps(outside, in_range)));
   }
 #endif
 };
@@ -330,8 +335,10 @@ bool traverse(std::span<const WideNode> node_span, std::span<const TriangleBlock
   const TriangleBlock* const blocks = block_span.data();
   const RobustRay r(ray, scene, magnitude);
   const Slab8 slab(r);
-  const WatertightRay w(ray);
-  const Watertight4 w4(w);
+  // The triangle test's constants are made at the first leaf: many short rays (diffuse rays
+  // leaving a surface) never reach one.
+  std::optional<WatertightRay> w;
+  std::optional<WatertightBlock> wb;
   const float tmin = ray.tmin;
   Hit best = hit;  // best.t: the far end of every test (tmax for an any-hit query)
   Entry stack[kStackSize];
@@ -346,8 +353,10 @@ bool traverse(std::span<const WideNode> node_span, std::span<const TriangleBlock
       // instead of waiting for each other when the stack is popped.
       for (unsigned m = mask; m != 0; m &= m - 1) {
         const int c = std::countr_zero(m);
-        prefetch(n.count[c] == 0 ? static_cast<const void*>(&nodes[n.child[c]])
-                                 : static_cast<const void*>(&blocks[n.child[c]]));
+        if (n.count[c] == 0)
+          prefetch<sizeof(WideNode)>(&nodes[n.child[c]]);
+        else
+          prefetch<sizeof(TriangleBlock)>(&blocks[n.child[c]]);
       }
       if (mask != 0) {
         int i = std::countr_zero(mask);
@@ -366,29 +375,18 @@ bool traverse(std::span<const WideNode> node_span, std::span<const TriangleBlock
         current = nearest;
         continue;
       }
-    } else {  // a leaf: its blocks of four triangles, two at a time where there are two
+    } else {  // a leaf: its blocks of eight triangles
       const std::uint32_t end = current.child + current.count;
-      for (std::uint32_t b = current.child; b < end;) {
-        alignas(32) float t[2 * kBlockWidth], u[2 * kBlockWidth], v[2 * kBlockWidth];
+      if (!wb) wb.emplace(w.emplace(ray));
+      for (std::uint32_t b = current.child; b < end; ++b) {
+        alignas(32) float t[kBlockWidth], u[kBlockWidth], v[kBlockWidth];
         unsigned scalar;
-        const TriangleBlock* pair[2] = {&blocks[b], &blocks[b]};
-        unsigned found;
-#if defined(__AVX__)
-        if (b + 1 < end) {
-          pair[1] = &blocks[b + 1];
-          found = w4.test2(*pair[0], *pair[1], tmin, best.t, t, u, v, scalar);
-          b += 2;
-        } else
-#endif
-        {
-          found = w4.test(*pair[0], tmin, best.t, t, u, v, scalar);
-          b += 1;
-        }
+        const TriangleBlock& block = blocks[b];
+        unsigned found = wb->test(block, tmin, best.t, t, u, v, scalar);
         while (scalar != 0) {  // edge cases: the scalar test decides in double precision
           const int lane = std::countr_zero(scalar);
           scalar &= scalar - 1;
-          if (intersect_triangle(w, pair[lane / kBlockWidth]->triangle(lane % kBlockWidth), tmin,
-                                 best.t, t[lane], u[lane], v[lane]))
+          if (intersect_triangle(*w, block.triangle(lane), tmin, best.t, t[lane], u[lane], v[lane]))
             found |= 1u << lane;
         }
         if constexpr (AnyHit) {
@@ -397,8 +395,7 @@ bool traverse(std::span<const WideNode> node_span, std::span<const TriangleBlock
           while (found != 0) {
             const int lane = std::countr_zero(found);
             found &= found - 1;
-            const Hit candidate{t[lane], pair[lane / kBlockWidth]->id[lane % kBlockWidth], u[lane],
-                                v[lane]};
+            const Hit candidate{t[lane], block.id[lane], u[lane], v[lane]};
             if (candidate.closer_than(best)) best = candidate;
           }
         }
