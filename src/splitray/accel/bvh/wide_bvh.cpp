@@ -38,9 +38,9 @@ struct Collapse {
   std::span<const BvhNode> nodes;
   std::span<const std::uint32_t> ids;
   std::span<const Triangle> triangles;
-  std::vector<WideNode>& out;
+  HugePageVector<WideNode>& out;
   std::vector<std::uint32_t>& source;
-  std::vector<TriangleBlock>& blocks;
+  HugePageVector<TriangleBlock>& blocks;
 };
 
 // Appends the blocks of a binary leaf; returns the first.
@@ -62,7 +62,7 @@ std::uint32_t add_blocks(const Collapse& c, const BvhNode& leaf, std::uint32_t& 
 
 std::uint32_t collapse_node(const Collapse& c, std::uint32_t binary) {
   const std::span<const BvhNode> nodes = c.nodes;
-  std::vector<WideNode>& out = c.out;
+  HugePageVector<WideNode>& out = c.out;
   std::vector<std::uint32_t>& source = c.source;
   const auto index = static_cast<std::uint32_t>(out.size());
   out.emplace_back();
@@ -427,7 +427,7 @@ void WideBvh::collapse(std::span<const BvhNode> nodes, std::span<const std::uint
   blocks_.clear();
   if (nodes.empty()) return;
   nodes_.reserve(nodes.size() / 4 + 1);
-  blocks_.reserve(ids.size() / 2 + 1);
+  blocks_.reserve(ids.size() / 4 + 1);
   collapse_node({nodes, ids, triangles, nodes_, source_, blocks_}, 0);
 }
 

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "splitray/accel/bvh/bvh_build.hpp"
+#include "splitray/core/huge_page_allocator.hpp"
 #include "splitray/core/triangle.hpp"
 
 namespace splitray {
@@ -61,9 +62,9 @@ class WideBvh {
   std::span<const WideNode> nodes() const { return nodes_; }
 
  private:
-  std::vector<WideNode> nodes_;        // root at 0
-  std::vector<std::uint32_t> source_;  // binary node of each slot (kInvalidId: empty)
-  std::vector<TriangleBlock> blocks_;  // leaf triangles, leaf after leaf
+  HugePageVector<WideNode> nodes_;        // root at 0
+  std::vector<std::uint32_t> source_;     // binary node of each slot (kInvalidId: empty)
+  HugePageVector<TriangleBlock> blocks_;  // leaf triangles, leaf after leaf
 };
 
 }  // namespace splitray

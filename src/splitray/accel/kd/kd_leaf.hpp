@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "splitray/core/huge_page_allocator.hpp"
 #include "splitray/core/triangle.hpp"
 
 #if defined(__AVX2__)
@@ -47,7 +48,7 @@ class KdLeafTriangles {
   }
 
  private:
-  std::vector<float> rows_;
+  HugePageVector<float> rows_;
 };
 
 // Tests the n triangles of a leaf (rows from KdLeafTriangles::leaf, primitive ids `ids`).

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "splitray/accel/kd/kd_tree.hpp"
+#include "splitray/core/huge_page_allocator.hpp"
 
 namespace splitray {
 
@@ -38,8 +39,8 @@ struct KdWideTree {
   static constexpr std::uint32_t kLeafRef = 1u << 31;
   static constexpr std::uint32_t kEmpty = ~0u;
 
-  std::vector<KdWideNode> nodes;
-  std::vector<KdWideLeaf> leaves;
+  HugePageVector<KdWideNode> nodes;
+  HugePageVector<KdWideLeaf> leaves;
   std::uint32_t root = kEmpty;  // a node, a leaf or empty
   int max_depth = 0;            // wide levels from the root to the deepest node
 
