@@ -44,8 +44,8 @@ static_assert(sizeof(TriangleBlock) == 320);
 
 class WideBvh {
  public:
-  // Collapses `nodes` (root at 0, children side by side; leaves index `ids`), greedily
-  // opening the child with the largest surface area until a node has eight children.
+  // Collapses `nodes` (root at 0, children side by side; leaves index `ids`) into the wide
+  // nodes of least SAH cost (the dynamic program of Ylitie et al. 2017; every leaf is kept).
   void collapse(std::span<const BvhNode> nodes, std::span<const std::uint32_t> ids,
                 std::span<const Triangle> triangles);
   // After a refit of the binary tree (same topology): its boxes and the moved triangles.
