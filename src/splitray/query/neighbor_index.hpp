@@ -21,8 +21,8 @@ struct NeighborIndexConfig {
   // Morton order (true: shows how much of a difference is query order alone).
   bool coherent_peers = false;
   // builder "neural" (paper 003): model file (empty = the shipped one) and leaf expander.
-  std::string model;
-  std::string expand;
+  std::string model{};
+  std::string expand{};
 };
 
 class NeighborIndex {

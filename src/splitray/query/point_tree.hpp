@@ -32,8 +32,8 @@ struct PointTreeConfig {
   float point_cost = 1.0f;      // c_i
   // builder "neural" (paper 003): the model file (empty = the shipped models/vvh.bin) and the
   // builder that expands the inferred top's leaf cells (empty = vvh).
-  std::string model;
-  std::string expand;
+  std::string model{};
+  std::string expand{};
 };
 
 // Interior: the points below have coordinate[axis] <= below_max < above_min <= the points
