@@ -1,4 +1,4 @@
-// Collapsing and traversing the eight-wide layout. The slab test of the AVX path (with FMA)
+// Collapsing and traversing the wide layout. The slab test of the AVX paths (with FMA)
 // and of the scalar path round differently, but both stay within the padding of
 // robust_ray.hpp (min/max operand order keeps NaN out), so both let every ray through to
 // every triangle it may hit, and the answers come from the same watertight triangle test.
@@ -19,7 +19,7 @@ namespace splitray {
 
 namespace {
 
-constexpr int kStackSize = 8 * 64;  // at most 7 pushes per level, at most 64 levels
+constexpr int kStackSize = kWideWidth * 64;  // fewer than kWideWidth pushes per level, 64 levels
 
 struct Entry {
   std::uint32_t child;
@@ -63,8 +63,9 @@ std::uint32_t add_blocks(const Collapse& c, const BvhNode& leaf, std::uint32_t& 
 // The SAH-optimal collapse of Ylitie, Karras & Laine ("Efficient incoherent ray traversal on
 // GPUs through compressed wide BVHs", HPG 2017), keeping every binary leaf: cost(n, i) is the
 // least SAH cost of the binary subtree n as a forest of at most i slots, computed bottom-up;
-// a wide node then takes the eight slots its children's best forests give. A wide node's test
-// costs about one block test (eight slab tests against eight triangle tests), so both count 1.
+// a wide node then takes the kWideWidth slots its children's best forests give. A wide node's
+// test costs about one block test (one SIMD slab test against eight triangle tests), so both
+// count 1.
 class CollapsePlan {
  public:
   explicit CollapsePlan(std::span<const BvhNode> nodes)
@@ -185,20 +186,26 @@ std::uint32_t collapse_node(const Collapse& c, const CollapsePlan& plan, std::ui
   return index;
 }
 
-// The per-ray constants of the eight-wide slab test: plane rows by direction sign, and the
+// The per-ray constants of the wide slab test: plane rows by direction sign, and the
 // origins and inverse direction broadcast once.
-struct Slab8 {
+struct WideSlab {
   int near[3], far[3];
-#if defined(__AVX__)
+#if defined(__AVX512F__)
+  __m512 org_near[3], org_far[3], inv[3];  // origin times inv
+#elif defined(__AVX__)
   __m256 org_near[3], org_far[3], inv[3];  // org_*: origin times inv (FMA) or the origin
 #endif
   const RobustRay& r;
 
-  explicit Slab8(const RobustRay& ray) : r(ray) {
+  explicit WideSlab(const RobustRay& ray) : r(ray) {
     for (int a = 0; a < 3; ++a) {
       near[a] = r.negative[a] ? 3 + a : a;
       far[a] = r.negative[a] ? a : 3 + a;
-#if defined(__AVX__)
+#if defined(__AVX512F__)
+      org_near[a] = _mm512_set1_ps(r.org_near[a] * r.inv[a]);
+      org_far[a] = _mm512_set1_ps(r.org_far[a] * r.inv[a]);
+      inv[a] = _mm512_set1_ps(r.inv[a]);
+#elif defined(__AVX__)
 #if defined(__FMA__)
       org_near[a] = _mm256_set1_ps(r.org_near[a] * r.inv[a]);
       org_far[a] = _mm256_set1_ps(r.org_far[a] * r.inv[a]);
@@ -211,9 +218,21 @@ struct Slab8 {
     }
   }
 
-  // Entry parameters into all eight slots (within [tmin, tmax]); bit i set on a hit.
+  // Entry parameters into all slots (within [tmin, tmax]); bit i set on a hit.
   unsigned test(const WideNode& n, float tmin, float tmax, float* t_entry) const {
-#if defined(__AVX__)
+#if defined(__AVX512F__)
+    __m512 t0 = _mm512_set1_ps(tmin), t1 = _mm512_set1_ps(tmax);
+    for (int a = 0; a < 3; ++a) {
+      const __m512 lo = _mm512_fmsub_ps(_mm512_load_ps(n.planes[near[a]]), inv[a], org_near[a]);
+      const __m512 hi = _mm512_fmsub_ps(_mm512_load_ps(n.planes[far[a]]), inv[a], org_far[a]);
+      // NaN in the first operand keeps t0 (as below); the zero-masked forms avoid a false
+      // may-be-uninitialised warning of GCC 12's plain _mm512_max_ps.
+      t0 = _mm512_maskz_max_ps(0xffff, lo, t0);
+      t1 = _mm512_maskz_min_ps(0xffff, hi, t1);
+    }
+    _mm512_store_ps(t_entry, t0);
+    return static_cast<unsigned>(_mm512_cmp_ps_mask(t0, t1, _CMP_LE_OQ));
+#elif defined(__AVX__)
     __m256 t0 = _mm256_set1_ps(tmin), t1 = _mm256_set1_ps(tmax);
     for (int a = 0; a < 3; ++a) {
 #if defined(__FMA__)
@@ -404,7 +423,7 @@ bool traverse(std::span<const WideNode> node_span, std::span<const TriangleBlock
   const WideNode* const nodes = node_span.data();
   const TriangleBlock* const blocks = block_span.data();
   const RobustRay r(ray, scene, magnitude);
-  const Slab8 slab(r);
+  const WideSlab slab(r);
   // The triangle test's constants are made at the first leaf: many short rays (diffuse rays
   // leaving a surface) never reach one.
   std::optional<WatertightRay> w;
@@ -417,7 +436,7 @@ bool traverse(std::span<const WideNode> node_span, std::span<const TriangleBlock
   for (;;) {
     if (current.count == 0) {  // a wide node: enter the nearest hit child, push the others
       const WideNode& n = nodes[current.child];
-      alignas(32) float t_entry[kWideWidth];
+      alignas(64) float t_entry[kWideWidth];
       unsigned mask = slab.test(n, tmin, best.t, t_entry);
       // Ask for every child that will be visited or pushed at once: the memory loads overlap
       // instead of waiting for each other when the stack is popped.
