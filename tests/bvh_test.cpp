@@ -7,6 +7,7 @@
 #include "hierarchy_oracle.hpp"
 #include "splitray/accel/bvh/kd_top_bvh.hpp"
 #include "splitray/core/errors.hpp"
+#include "splitray/core/huge_page_allocator.hpp"
 #include "splitray/core/parallel.hpp"
 
 namespace splitray::test {
@@ -103,6 +104,45 @@ TEST(Bvh, TreeAndHitsDoNotDependOnThreadCount) {
         << builder;
     expect_same_answers(answers[0], answers[1], ref.rays, "1 vs 2 threads " + builder);
   }
+}
+
+TEST(Bvh, WideLayoutKeepsEveryLeafInFullNodes) {
+  const Reference& ref = reference(vendored_file(kHorse));
+  for (const std::string builder : {"binned", "sbvh"}) {
+    const Bvh bvh = Bvh::build(ref.tris, builder, BvhBuildOptions{});
+    std::size_t leaves = 0;
+    for (const BvhNode& n : bvh.nodes()) leaves += n.leaf() ? 1 : 0;
+    const auto wide = bvh.wide().nodes();
+    std::size_t leaf_slots = 0, slots = 0;
+    for (const WideNode& w : wide)
+      for (int i = 0; i < kWideWidth; ++i) {
+        const bool used = w.planes[0][i] <= w.planes[3][i];
+        slots += used ? 1 : 0;
+        if (used && w.count[i] > 0) ++leaf_slots;
+        if (used && w.count[i] == 0) {
+          EXPECT_LT(w.child[i], wide.size()) << builder;
+        }
+      }
+    EXPECT_EQ(leaf_slots, leaves) << builder;               // every binary leaf, once
+    EXPECT_EQ(slots, wide.size() - 1 + leaves) << builder;  // every wide node but the root
+    // The collapse fills nodes: on average more than half of the slots are used.
+    EXPECT_GT(2 * slots, wide.size() * static_cast<std::size_t>(kWideWidth)) << builder;
+  }
+}
+
+TEST(HugePageAllocator, AlignsAndKeepsContents) {
+  HugePageVector<std::uint32_t> small(1000), large;
+  EXPECT_EQ(reinterpret_cast<std::uintptr_t>(small.data()) % 64, 0u);
+  for (std::uint32_t i = 0; i < 3'000'000; ++i) large.push_back(i);  // grows through 1 MiB
+  EXPECT_EQ(reinterpret_cast<std::uintptr_t>(large.data()) % (std::size_t{1} << 21), 0u);
+  bool intact = true;
+  for (std::uint32_t i = 0; i < large.size(); ++i) intact = intact && large[i] == i;
+  EXPECT_TRUE(intact);
+  HugePageVector<std::uint32_t> copy = large;
+  large.clear();
+  large.shrink_to_fit();
+  EXPECT_EQ(copy.size(), 3'000'000u);
+  EXPECT_EQ(copy.back(), 2'999'999u);
 }
 
 TEST(Bvh, StatsDescribeTheTree) {
