@@ -1,8 +1,8 @@
 #pragma once
 // A BVH over triangles: built as a binary tree of 32-byte nodes (children side by side;
 // what builders, refit and statistics work on), traversed in its
-// eight-wide collapsed form (wide_bvh.hpp: one SIMD slab test per eight children, nearest
-// child first, fixed stack; leaf triangles copied into blocks of four, tested two at a time).
+// wide collapsed form (wide_bvh.hpp: one SIMD slab test per 16 children with AVX-512, else 8,
+// nearest child first, fixed stack; a leaf's triangles copied into one block of eight lanes).
 // Refitting moves the boxes and triangles for meshes that deform with fixed topology.
 //
 //   Bvh bvh = Bvh::build(triangles, "sbvh", BvhBuildOptions::from(config));

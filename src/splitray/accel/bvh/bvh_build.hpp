@@ -59,7 +59,7 @@ std::vector<BvhRef> make_prim_refs(std::span<const Triangle> triangles);  // who
 struct BvhBuildOptions {
   float traversal_cost = 15;     // SAH K_T
   float intersection_cost = 20;  // SAH K_I, per block of leaf_block triangles (tested at once)
-  int leaf_block = 8;            // triangles a leaf tests together (two blocks of four in AVX)
+  int leaf_block = 8;            // triangles a leaf tests together (one block of eight lanes)
   int min_leaf = 1;              // nodes with this many references or fewer are leaves
   int max_leaf = 8;              // nodes with more are split whenever they can be
   int bins = 32;                 // SAH bins per axis for object splits
