@@ -35,12 +35,13 @@ struct HugePageAllocator {
       void* raw = mmap(nullptr, rounded + kHugePage, PROT_READ | PROT_WRITE,
                        MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
       if (raw == MAP_FAILED) throw std::bad_alloc();
-      const auto start = reinterpret_cast<std::uintptr_t>(raw);
-      const std::uintptr_t aligned = (start + kHugePage - 1) & ~(kHugePage - 1);
-      if (aligned > start) munmap(raw, aligned - start);
-      const std::uintptr_t tail = aligned + rounded, end = start + rounded + kHugePage;
-      if (end > tail) munmap(reinterpret_cast<void*>(tail), end - tail);
-      madvise(reinterpret_cast<void*>(aligned), rounded, MADV_HUGEPAGE);  // only a hint
+      char* const start = static_cast<char*>(raw);
+      const std::size_t misalign = reinterpret_cast<std::uintptr_t>(raw) % kHugePage;
+      const std::size_t head = misalign == 0 ? 0 : kHugePage - misalign;
+      char* const aligned = start + head;
+      if (head > 0) munmap(start, head);
+      if (kHugePage > head) munmap(aligned + rounded, kHugePage - head);  // the tail
+      madvise(aligned, rounded, MADV_HUGEPAGE);                           // only a hint
       return reinterpret_cast<T*>(aligned);
     }
 #endif

@@ -113,8 +113,8 @@ class CollapsePlan {
     const BvhNode& node = nodes_[n];
     const float area = node.box().half_area();
     if (node.leaf()) {
-      const float leaf =
-          area * kBlockCost * static_cast<float>((node.count() + kBlockWidth - 1) / kBlockWidth);
+      const std::uint32_t blocks = (node.count() + kBlockWidth - 1) / kBlockWidth;  // rounded up
+      const float leaf = area * kBlockCost * static_cast<float>(blocks);
       for (int i = 1; i <= kWideWidth; ++i) cost(n, i) = leaf, split(n, i) = 0;
       return;
     }

@@ -31,7 +31,7 @@ struct alignas(64) WideNode {
   std::uint32_t child[kWideWidth];  // interior: wide node index; leaf: first block
   std::uint32_t count[kWideWidth];  // leaf: blocks (> 0); interior or empty: 0
 };
-static_assert(sizeof(WideNode) == 32 * kWideWidth);
+static_assert(sizeof(WideNode) == std::size_t{32} * kWideWidth);
 
 inline constexpr int kBlockWidth = 8;
 
