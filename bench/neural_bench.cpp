@@ -332,6 +332,7 @@ Json inference_scaling(const ModelInfo& sah, const ModelInfo& vvh, std::span<con
       std::vector<double> draw_ms, infer_ms, infer_cpu;
       NeuralTop top;
       PointTreeConfig config;
+      config.top_min_points = 0;  // the model's full depth at every size: the same work
       const float radius = 1e-4f * length(box.extent());
       for (int r = 0; r < reps; ++r) {
         double sampling = 0;
@@ -573,10 +574,11 @@ std::string neural_markdown_report(const Json& report) {
   md += fmt::format(
       "- held-out meshes only (left out as training meshes: {}); {} runs (median, "
       "alternating the two trees), {} rays per kind, {} points and {} queries (k = {}) "
-      "per mesh\n\n",
+      "per mesh; inferred-top cells of fewer than {} primitives are left to B (`--top-min`, "
+      "the default), so a small mesh gets no top and B's own tree\n\n",
       left_out.empty() ? "none" : left_out, settings["runs"].get<int>(),
       settings["rays_per_kind"].get<std::size_t>(), settings["points"].get<std::size_t>(),
-      settings["queries"].get<std::size_t>(), settings["ks"].dump());
+      settings["queries"].get<std::size_t>(), settings["ks"].dump(), kNeuralTopMinPrims);
 
   std::vector<double> cost_kd, cost_bvh, cost_pts, trace_kd, trace_bvh, knn;
   std::string rt =

@@ -251,6 +251,7 @@ TEST(NeuralTop, GreedyInferenceGivesAValidTopIndependentOfThreads) {
   const NeuralModel model = read_neural_model(model_file(NeuralCost::sah, 6));
   const Aabb box = bounds_of(tris);
   BuildConfig config;
+  config.top_min_prims = 0;  // every node down to the model's depth
   TriangleTop one, two;
   {
     ThreadLimit limit(1);
@@ -302,6 +303,7 @@ void expect_neural_matches_brute(const Reference& ref, const std::string& accel,
   config.builder = "neural";
   config.model = model;
   config.expand = expand;
+  config.top_min_prims = 0;  // the deepest top the model gives: the hardest case for the answers
   const auto tree = make_accel(accel, ref.tris, config);
   EXPECT_EQ(tree->stats().accel, accel);
   EXPECT_TRUE(tree->stats().inference_ms.has_value());
@@ -324,6 +326,31 @@ TEST(NeuralAccel, BvhsMatchBruteOnHorseWithEveryExpander) {
   for (const std::string expand : {"binned", "sbvh", "embree"})
     expect_neural_matches_brute(reference(vendored_file("horse/horse.obj.gz")), "bvh", expand,
                                 model, "horse");
+}
+
+TEST(NeuralAccel, SmallCellsAreLeftToTheExpansionBuilder) {
+  SPLITRAY_REQUIRE_SHARED(cornell, "static_cornell_box/cornell_box.obj");
+  const std::string model = model_file(NeuralCost::sah, 6);
+  const auto build = [&](const std::vector<Triangle>& tris, const std::string& builder,
+                         int top_min) {
+    BuildConfig config;
+    config.builder = builder;
+    config.model = model;
+    config.top_min_prims = top_min;
+    return make_accel("kd", tris, config)->stats();
+  };
+  // 36 triangles, fewer than the default threshold: no top, exactly the expansion's tree.
+  const std::vector<Triangle> room = load_triangles(cornell);
+  const AccelStats small = build(room, "neural", kNeuralTopMinPrims);
+  EXPECT_EQ(*small.top_depth, 0);
+  EXPECT_EQ(*small.sah_cost, *build(room, "sah", kNeuralTopMinPrims).sah_cost);
+  EXPECT_EQ(small.nodes, build(room, "sah", kNeuralTopMinPrims).nodes);
+  // 16.8k triangles: the default stops where cells hold about 4096, 0 goes to the model's 6.
+  const std::vector<Triangle> horse = load_triangles(vendored_file("horse/horse.obj.gz"));
+  const int shallow = *build(horse, "neural", kNeuralTopMinPrims).top_depth;
+  EXPECT_GT(shallow, 0);
+  EXPECT_LT(shallow, 6);
+  EXPECT_EQ(*build(horse, "neural", 0).top_depth, 6);
 }
 
 TEST(NeuralAccel, KdAndBvhMatchBruteOnSharedMeshes) {
@@ -391,6 +418,7 @@ TEST(NeuralAccel, DefaultModelsAreFoundThroughTheModelDir) {
   const std::vector<Triangle> tris = load_triangles(vendored_file("horse/horse.obj.gz"));
   BuildConfig config;
   config.builder = "neural";
+  config.top_min_prims = 0;
   const auto tree = make_accel("kd", tris, config);  // no --model: the folder's sah.bin
   EXPECT_EQ(*tree->stats().top_depth, 4);
   if (old)

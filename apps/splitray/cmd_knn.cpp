@@ -146,18 +146,24 @@ void add_knn_command(CLI::App& app) {
                   "--builder neural: builder of the inferred top's leaf cells (vvh, sah, median; "
                   "default vvh)")
       ->check(CLI::IsMember({"vvh", "sah", "median"}));
+  sub->add_option("--top-min", command->index.top_min_points,
+                  "--builder neural: inferred-top cells of fewer points (estimated from the "
+                  "samples) are left to the expansion builder (default 4096; 0: split down to the "
+                  "model's depth)")
+      ->check(CLI::Range(0, 1 << 30));
   sub->add_option("--leaf-size", command->index.leaf_size, "Points per leaf (all trees)")
       ->check(CLI::Range(1, 1 << 20));
   sub->add_option("--vvh-radius", command->index.radius,
                   "VVH/SAH cell expansion (0: --radius, else 1e-4 of the bounding-box diagonal)");
   sub->add_option("--threads", command->threads, "Worker threads (0 = all cores)")
       ->check(CLI::NonNegativeNumber);
-  sub->add_flag("--json", command->json,
-                "Print one JSON object: points, queries, k (null for --radius), build_ms, ms, "
-                "queries_per_s, neighbor_checksum, dist_sum, mean_dist, builder, radius (with "
-                "--radius), neighbors, input, sampled, seed, leaf_size, threads, load_ms, and for "
-                "our trees vvh_radius, vvh_cost, nodes, leaves, max_depth, bytes (and inference_ms, "
-                "top_depth for --builder neural)");
+  sub->add_flag(
+      "--json", command->json,
+      "Print one JSON object: points, queries, k (null for --radius), build_ms, ms, "
+      "queries_per_s, neighbor_checksum, dist_sum, mean_dist, builder, radius (with "
+      "--radius), neighbors, input, sampled, seed, leaf_size, threads, load_ms, and for "
+      "our trees vvh_radius, vvh_cost, nodes, leaves, max_depth, bytes (and inference_ms, "
+      "top_depth for --builder neural)");
   sub->callback([command] { run(*command); });
 }
 

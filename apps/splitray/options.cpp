@@ -75,7 +75,8 @@ std::string camera_problem(const std::string& text, CameraSpec& out) {
 bool ends_with_icase(const std::string& text, const std::string& suffix) {
   if (text.size() < suffix.size()) return false;
   return std::equal(suffix.begin(), suffix.end(), text.end() - suffix.size(), [](char a, char b) {
-    return std::tolower(static_cast<unsigned char>(a)) == std::tolower(static_cast<unsigned char>(b));
+    return std::tolower(static_cast<unsigned char>(a)) ==
+           std::tolower(static_cast<unsigned char>(b));
   });
 }
 
@@ -86,41 +87,56 @@ std::string fixed(double value, int decimals) { return fmt::format("{:.{}f}", va
 void add_accel_options(CLI::App& command, AccelOptions& options) {
   command.add_option("-a,--accel", options.accel, "Acceleration structure")
       ->check(CLI::IsMember(accel_names()));
-  command.add_option("-b,--builder", options.build.builder, "Builder of the structure: " + builders_help());
-  command.add_option("-t,--threads", options.build.threads,
-                     "Worker threads for building and tracing (0 = all cores); results never "
-                     "depend on it")
+  command.add_option("-b,--builder", options.build.builder,
+                     "Builder of the structure: " + builders_help());
+  command
+      .add_option("-t,--threads", options.build.threads,
+                  "Worker threads for building and tracing (0 = all cores); results never "
+                  "depend on it")
       ->check(CLI::NonNegativeNumber);
   const std::string group = "Build settings";
   command.add_option("--kt", options.build.traversal_cost, "SAH cost of traversing a node (K_T)")
       ->check(CLI::PositiveNumber)
       ->group(group);
-  command.add_option("--ki", options.build.intersection_cost,
-                     "SAH cost of intersecting a triangle (K_I)")
+  command
+      .add_option("--ki", options.build.intersection_cost,
+                  "SAH cost of intersecting a triangle (K_I)")
       ->check(CLI::PositiveNumber)
       ->group(group);
-  command.add_option("--empty-bonus", options.build.empty_bonus,
-                     "SAH discount for splits that cut off empty space")
+  command
+      .add_option("--empty-bonus", options.build.empty_bonus,
+                  "SAH discount for splits that cut off empty space")
       ->check(CLI::Range(0.0, 1.0))
       ->group(group);
-  command.add_option("--tree-depth", options.build.max_depth,
-                     "Maximum tree depth (0 = automatic: 8 + 1.3 log2 N)")
+  command
+      .add_option("--tree-depth", options.build.max_depth,
+                  "Maximum tree depth (0 = automatic: 8 + 1.3 log2 N)")
       ->check(CLI::Range(0, 128))
       ->group(group);
-  command.add_option("--leaf-size", options.build.max_leaf_prims,
-                     "Nodes with this many triangles or fewer become leaves")
+  command
+      .add_option("--leaf-size", options.build.max_leaf_prims,
+                  "Nodes with this many triangles or fewer become leaves")
       ->check(CLI::Range(1, 1 << 20))
       ->group(group);
   command.add_option("--bins", options.build.bins, "Bins per axis of binned builders")
       ->check(CLI::Range(2, 1 << 16))
       ->group(group);
-  command.add_option("--model", options.build.model,
-                     "--builder neural: model file (default: models/sah.bin of the source tree, "
-                     "$SPLITRAY_MODEL_DIR or share/splitray/models)")
+  command
+      .add_option("--model", options.build.model,
+                  "--builder neural: model file (default: models/sah.bin of the source tree, "
+                  "$SPLITRAY_MODEL_DIR or share/splitray/models)")
       ->group(group);
-  command.add_option("--expand", options.build.expand,
-                     "--builder neural: builder of the inferred top's leaf cells (kd: sah, golden, "
-                     "binned; bvh: binned, sbvh, embree; default: the structure's default builder)")
+  command
+      .add_option("--expand", options.build.expand,
+                  "--builder neural: builder of the inferred top's leaf cells (kd: sah, golden, "
+                  "binned; bvh: binned, sbvh, embree; default: the structure's default builder)")
+      ->group(group);
+  command
+      .add_option("--top-min", options.build.top_min_prims,
+                  "--builder neural: inferred-top cells of fewer triangles (estimated from the "
+                  "samples) are left to the expansion builder (default 4096; 0: split down to "
+                  "the model's depth)")
+      ->check(CLI::Range(0, 1 << 30))
       ->group(group);
 }
 
@@ -203,9 +219,9 @@ nlohmann::ordered_json stats_json(const AccelStats& stats) {
 }
 
 std::vector<std::pair<std::string, std::string>> stats_rows(const AccelStats& stats) {
-  const double evals_per_node =
-      stats.nodes > stats.leaves ? static_cast<double>(stats.cost_evals) / (stats.nodes - stats.leaves)
-                                 : 0.0;
+  const double evals_per_node = stats.nodes > stats.leaves ? static_cast<double>(stats.cost_evals) /
+                                                                 (stats.nodes - stats.leaves)
+                                                           : 0.0;
   std::vector<std::pair<std::string, std::string>> rows = {
       {"accel", stats.accel},
       {"builder", stats.builder},
@@ -220,7 +236,8 @@ std::vector<std::pair<std::string, std::string>> stats_rows(const AccelStats& st
       {"mean_leaf_prims", fixed(stats.mean_leaf_prims, 2)},
       {"prim_refs", std::to_string(stats.prim_refs)},
       {"bytes", fmt::format("{} ({:.2f} MiB)", stats.bytes, stats.bytes / (1024.0 * 1024.0))},
-      {"cost_evals", fmt::format("{} ({:.1f} per interior node)", stats.cost_evals, evals_per_node)},
+      {"cost_evals",
+       fmt::format("{} ({:.1f} per interior node)", stats.cost_evals, evals_per_node)},
   };
   if (stats.inference_ms) rows.emplace_back("inference_ms", fixed(*stats.inference_ms, 3));
   if (stats.top_depth) rows.emplace_back("top_depth", std::to_string(*stats.top_depth));
@@ -239,8 +256,9 @@ void print_table(const std::vector<std::pair<std::string, std::string>>& rows) {
 int effective_threads(int threads) { return threads > 0 ? threads : hardware_threads(); }
 
 std::string structure_name(const AccelStats& stats) {
-  return stats.builder.empty() || stats.builder == "none" ? stats.accel
-                                                          : stats.accel + " (" + stats.builder + ")";
+  return stats.builder.empty() || stats.builder == "none"
+             ? stats.accel
+             : stats.accel + " (" + stats.builder + ")";
 }
 
 }  // namespace splitray::app

@@ -13,6 +13,10 @@
 
 namespace splitray {
 
+// --builder neural: a cell of fewer primitives than this is not split by the network but by
+// the expansion builder, whose exact decisions beat those learnt from a few samples there.
+inline constexpr int kNeuralTopMinPrims = 4096;
+
 // Build settings shared by every structure; each reads the fields that apply to it.
 struct BuildConfig {
   std::string builder;           // empty = the structure's default builder
@@ -27,11 +31,14 @@ struct BuildConfig {
   // and the builder that expands the inferred top's leaves (empty = the structure's default).
   std::string model;
   std::string expand;
+  // Inferred-top nodes with fewer primitives than this (estimated from the samples) are left
+  // to the expansion builder; 0 = every node down to the model's depth.
+  int top_min_prims = kNeuralTopMinPrims;
 };
 
 struct AccelStats {
-  std::string accel;     // "kd", "brute", ...
-  std::string builder;   // the builder actually used
+  std::string accel;    // "kd", "brute", ...
+  std::string builder;  // the builder actually used
   std::size_t prims = 0;
   double build_ms = 0;
   std::size_t nodes = 0;  // all nodes, leaves included
@@ -42,8 +49,8 @@ struct AccelStats {
   double mean_leaf_prims = 0;  // primitive references per non-empty leaf
   std::size_t prim_refs = 0;   // primitive references in all leaves
   std::size_t bytes = 0;
-  std::optional<double> sah_cost;  // from sah_cost.hpp, comparable across structures
-  std::uint64_t cost_evals = 0;    // SAH cost evaluations made while building
+  std::optional<double> sah_cost;      // from sah_cost.hpp, comparable across structures
+  std::uint64_t cost_evals = 0;        // SAH cost evaluations made while building
   std::optional<double> inference_ms;  // --builder neural: the network's greedy top inference
   std::optional<int> top_depth;        // --builder neural: levels of the inferred top
 };

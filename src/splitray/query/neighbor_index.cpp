@@ -13,12 +13,12 @@ namespace {
 class TreeIndex final : public NeighborIndex {
  public:
   TreeIndex(std::span<const Vec3> points, const NeighborIndexConfig& config)
-      : tree_(points,
-              {.builder = config.builder,
-               .leaf_size = config.leaf_size,
-               .radius = config.radius,
-               .model = config.model,
-               .expand = config.expand}) {
+      : tree_(points, {.builder = config.builder,
+                       .leaf_size = config.leaf_size,
+                       .radius = config.radius,
+                       .model = config.model,
+                       .expand = config.expand,
+                       .top_min_points = config.top_min_points}) {
     name_ = config.builder;
     build_ms_ = tree_.build_ms();
     points_ = points.size();
@@ -67,12 +67,14 @@ std::unique_ptr<NeighborIndex> make_neighbor_index(std::span<const Vec3> points,
     throw Error("neighbour index", "leaf size " + std::to_string(config.leaf_size) +
                                        " is out of range (1 .. 1048576)");
   const std::string& b = config.builder;
-  if (b == "vvh" || b == "sah" || b == "median" || b == "neural") return std::make_unique<TreeIndex>(points, config);
+  if (b == "vvh" || b == "sah" || b == "median" || b == "neural")
+    return std::make_unique<TreeIndex>(points, config);
   if (b == "brute") return std::make_unique<BruteIndex>(points);
   if (b == "nanoflann") return detail::make_nanoflann_index(points, config);
   if (b == "flann") return detail::make_flann_index(points, config);
-  throw Error("neighbour index",
-              "unknown builder '" + b + "' (expected vvh, sah, median, neural, brute, nanoflann or flann)");
+  throw Error(
+      "neighbour index",
+      "unknown builder '" + b + "' (expected vvh, sah, median, neural, brute, nanoflann or flann)");
 }
 
 namespace detail {

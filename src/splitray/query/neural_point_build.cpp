@@ -115,6 +115,7 @@ NeuralTop infer_point_top(const NeuralModel& model, std::span<const Vec3> points
   options.intersection_cost = config.point_cost;
   options.radius = radius;
   options.population = static_cast<double>(points.size());
+  options.min_split_population = config.top_min_points;
   return infer_neural_top(model, samples, bounds, options);
 }
 

@@ -34,6 +34,7 @@ struct PointTreeConfig {
   // builder that expands the inferred top's leaf cells (empty = vvh).
   std::string model{};
   std::string expand{};
+  int top_min_points = 4096;  // inferred-top nodes with fewer points are left to the expander
 };
 
 // Interior: the points below have coordinate[axis] <= below_max < above_min <= the points

@@ -166,6 +166,7 @@ TriangleTop infer_triangle_top(const NeuralModel& model, std::span<const Triangl
   options.traversal_cost = config.traversal_cost;
   options.intersection_cost = config.intersection_cost;
   options.population = static_cast<double>(triangles.size());
+  options.min_split_population = config.top_min_prims;
   out.top = infer_neural_top(model, samples, bounds, options);
   return out;
 }

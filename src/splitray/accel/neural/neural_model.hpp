@@ -55,7 +55,7 @@ struct NeuralModel {
   int depth() const { return static_cast<int>(levels.size()); }
 };
 
-NeuralModel read_neural_model(const std::string& path);                   // throws Error
+NeuralModel read_neural_model(const std::string& path);                      // throws Error
 void write_neural_model(const NeuralModel& model, const std::string& path);  // atomic rename
 
 // λ' of one axis at one level: `coords` are the M inputs already normalised (active points in
@@ -67,8 +67,8 @@ float encode_axis(const LevelEncoder& encoder, NeuralPooling pooling, std::span<
 // encode_axis over many inputs at once (all nodes and axes of one tree level share the
 // level's encoder, so their points go through the per-point layers in one pass): input g is
 // coords[offsets[g], offsets[g + 1]); out[g] receives exactly what encode_axis gives for it.
-void encode_groups(const LevelEncoder& encoder, NeuralPooling pooling, std::span<const float> coords,
-                   std::span<const std::size_t> offsets, std::span<float> out,
-                   std::vector<float>& scratch);
+void encode_groups(const LevelEncoder& encoder, NeuralPooling pooling,
+                   std::span<const float> coords, std::span<const std::size_t> offsets,
+                   std::span<float> out, std::vector<float>& scratch);
 
 }  // namespace splitray

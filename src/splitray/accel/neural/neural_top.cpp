@@ -113,6 +113,7 @@ NeuralTop infer_neural_top(const NeuralModel& model, std::span<const Vec3> sampl
     for (const std::size_t n : frontier) {
       const std::vector<std::uint32_t>& pts = active[n];
       if (pts.size() < 2 ||
+          static_cast<double>(pts.size()) * scale < options.min_split_population ||
           !(neural_cell_measure(top.nodes[n].box, options.cost, options.radius) > 0))
         continue;
       Aabb t;

@@ -37,6 +37,9 @@ struct NeuralTopOptions {
   float radius = 0;              // VVH: cells expanded by this radius
   double population = 0;         // N, the full input's size; <= 0: the sample count
   int max_depth = 0;  // levels to infer; 0 or more than the model has = the model's depth
+  // Nodes holding fewer primitives than this (estimated: samples × population / M) are left
+  // to the expansion builder, whose exact decisions beat sampled ones on small cells.
+  double min_split_population = 0;
 };
 
 struct NeuralTop {
