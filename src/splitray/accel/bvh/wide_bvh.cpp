@@ -280,15 +280,13 @@ inline void prefetch(const void* p) {
 }
 
 // The watertight test of triangle.hpp on the eight triangles of a block at once: the same
-// IEEE operations in the same order, lane by lane (AVX: all eight; SSE: four and four).
-// Lanes where an edge function is exactly zero (decided in double precision by the scalar
-// test) are returned in `scalar` and left to that test.
+// IEEE operations in the same order, lane by lane. Lanes where an edge function is exactly
+// zero (decided in double precision by the scalar test) are returned in `scalar` and left to
+// that test; without AVX every lane is (the portable build tests one triangle at a time).
 struct WatertightBlock {
   int k[3];  // kx, ky, kz
 #if defined(__AVX__)
   __m256 org[3], sx, sy, sz;  // org[i] = origin[k[i]]
-#elif defined(__SSE2__)
-  __m128 org[3], sx, sy, sz;
 #endif
   explicit WatertightBlock(const WatertightRay& ray) : k{ray.kx, ray.ky, ray.kz} {
     const float o[3] = {ray.org.x, ray.org.y, ray.org.z};  // indexed without branches
@@ -297,11 +295,6 @@ struct WatertightBlock {
     sx = _mm256_set1_ps(ray.sx);
     sy = _mm256_set1_ps(ray.sy);
     sz = _mm256_set1_ps(ray.sz);
-#elif defined(__SSE2__)
-    for (int i = 0; i < 3; ++i) org[i] = _mm_set1_ps(o[k[i]]);
-    sx = _mm_set1_ps(ray.sx);
-    sy = _mm_set1_ps(ray.sy);
-    sz = _mm_set1_ps(ray.sz);
 #else
     (void)o;
 #endif
@@ -354,63 +347,12 @@ struct WatertightBlock {
     _mm256_store_ps(u_out, _mm256_mul_ps(v, inv_det));
     _mm256_store_ps(v_out, _mm256_mul_ps(e, inv_det));
     return static_cast<unsigned>(_mm256_movemask_ps(_mm256_andnot_ps(outside, in_range)));
-#elif defined(__SSE2__)
-    unsigned edge_lo, edge_hi;
-    const unsigned lo = test4(b, 0, tmin, tmax, t_out, u_out, v_out, edge_lo);
-    const unsigned hi = test4(b, 4, tmin, tmax, t_out + 4, u_out + 4, v_out + 4, edge_hi);
-    scalar = edge_lo | edge_hi << 4;
-    return lo | hi << 4;
 #else
     (void)b, (void)tmin, (void)tmax, (void)t_out, (void)u_out, (void)v_out;
     scalar = (1u << kBlockWidth) - 1;
     return 0;
 #endif
   }
-
-#if defined(__SSE2__) && !defined(__AVX__)
-  // Lanes first..first + 3 of the block.
-  unsigned test4(const TriangleBlock& b, int first, float tmin, float tmax, float* t_out,
-                 float* u_out, float* v_out, unsigned& scalar) const {
-    const auto row = [&](int vertex, int i) {
-      return _mm_sub_ps(_mm_load_ps(b.v[3 * vertex + k[i]] + first), org[i]);
-    };
-    const __m128 a_x = row(0, 0), a_y = row(0, 1), a_z = row(0, 2);
-    const __m128 b_x = row(1, 0), b_y = row(1, 1), b_z = row(1, 2);
-    const __m128 c_x = row(2, 0), c_y = row(2, 1), c_z = row(2, 2);
-    const __m128 ax = _mm_sub_ps(a_x, _mm_mul_ps(sx, a_z)),
-                 ay = _mm_sub_ps(a_y, _mm_mul_ps(sy, a_z));
-    const __m128 bx = _mm_sub_ps(b_x, _mm_mul_ps(sx, b_z)),
-                 by = _mm_sub_ps(b_y, _mm_mul_ps(sy, b_z));
-    const __m128 cx = _mm_sub_ps(c_x, _mm_mul_ps(sx, c_z)),
-                 cy = _mm_sub_ps(c_y, _mm_mul_ps(sy, c_z));
-    const __m128 u = _mm_sub_ps(_mm_mul_ps(cx, by), _mm_mul_ps(cy, bx));
-    const __m128 v = _mm_sub_ps(_mm_mul_ps(ax, cy), _mm_mul_ps(ay, cx));
-    const __m128 e = _mm_sub_ps(_mm_mul_ps(bx, ay), _mm_mul_ps(by, ax));
-    const __m128 zero = _mm_setzero_ps();
-    const __m128 on_edge =
-        _mm_or_ps(_mm_or_ps(_mm_cmpeq_ps(u, zero), _mm_cmpeq_ps(v, zero)), _mm_cmpeq_ps(e, zero));
-    scalar = static_cast<unsigned>(_mm_movemask_ps(on_edge));
-    const __m128 negative =
-        _mm_or_ps(_mm_or_ps(_mm_cmplt_ps(u, zero), _mm_cmplt_ps(v, zero)), _mm_cmplt_ps(e, zero));
-    const __m128 positive =
-        _mm_or_ps(_mm_or_ps(_mm_cmpgt_ps(u, zero), _mm_cmpgt_ps(v, zero)), _mm_cmpgt_ps(e, zero));
-    const __m128 det = _mm_add_ps(_mm_add_ps(u, v), e);
-    const __m128 outside =
-        _mm_or_ps(_mm_or_ps(_mm_and_ps(negative, positive), _mm_cmpeq_ps(det, zero)), on_edge);
-    if (_mm_movemask_ps(outside) == 0xf) return 0;
-    const __m128 az = _mm_mul_ps(sz, a_z), bz = _mm_mul_ps(sz, b_z), cz = _mm_mul_ps(sz, c_z);
-    const __m128 t_scaled =
-        _mm_add_ps(_mm_add_ps(_mm_mul_ps(u, az), _mm_mul_ps(v, bz)), _mm_mul_ps(e, cz));
-    const __m128 inv_det = _mm_div_ps(_mm_set1_ps(1.0f), det);
-    const __m128 t = _mm_mul_ps(t_scaled, inv_det);
-    const __m128 in_range =
-        _mm_and_ps(_mm_cmpge_ps(t, _mm_set1_ps(tmin)), _mm_cmple_ps(t, _mm_set1_ps(tmax)));
-    _mm_storeu_ps(t_out, t);
-    _mm_storeu_ps(u_out, _mm_mul_ps(v, inv_det));
-    _mm_storeu_ps(v_out, _mm_mul_ps(e, inv_det));
-    return static_cast<unsigned>(_mm_movemask_ps(_mm_andnot_ps(outside, in_range)));
-  }
-#endif
 };
 
 // One query's traversal, in one loop whose state (current entry, stack, closest hit) lives in
