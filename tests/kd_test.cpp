@@ -552,6 +552,32 @@ TEST(KdAccel, MatchesBruteWithLargeLeaves) {
   expect_brute_hits(mesh, 5, rays_per_mesh() / 2, 1.5f);
 }
 
+// Small leaves are referenced inline from the wide nodes (first and count in the reference);
+// leaves of 31 triangles or more through the leaf table. Both must give every leaf's range.
+TEST(KdWideTree, ReferencesSmallLeavesInlineAndLargeOnesThroughTheTable) {
+  const Mesh mesh = load_mesh(test::vendored_file("horse/horse.obj.gz"));
+  const auto accel = build_kd(mesh.triangles(), 0, 1.5f);
+  const KdTree& tree = tree_of(*accel);
+  const KdWideTree wide = KdWideTree::from(tree);
+  std::size_t inline_refs = 0, table_refs = 0;
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> from_refs, from_tree;
+  for (const KdWideNode& node : wide.nodes)
+    for (const std::uint32_t ref : node.child) {
+      if (ref == KdWideTree::kEmpty || !(ref & KdWideTree::kLeafRef)) continue;
+      const KdWideLeaf leaf = KdWideTree::leaf(ref, wide.leaves.data());
+      ((ref & KdWideTree::kIndirect) == KdWideTree::kIndirect ? table_refs : inline_refs) += 1;
+      EXPECT_EQ((ref & KdWideTree::kIndirect) == KdWideTree::kIndirect, leaf.count >= 31);
+      from_refs.emplace_back(leaf.first, leaf.count);
+    }
+  for (const KdNode& n : tree.nodes)
+    if (n.is_leaf() && n.count() > 0) from_tree.emplace_back(n.prim_offset, n.count());
+  EXPECT_GT(inline_refs, 0u);
+  EXPECT_GT(table_refs, 0u);  // K_I = 1.5 makes leaves of up to 40 triangles
+  std::sort(from_refs.begin(), from_refs.end());
+  std::sort(from_tree.begin(), from_tree.end());
+  EXPECT_EQ(from_refs, from_tree);
+}
+
 TEST(KdAccel, MatchesBruteOnCornellBox) {
   SPLITRAY_REQUIRE_SHARED(path, "static_cornell_box/cornell_box.obj");
   expect_brute_hits(load_mesh(path), 2);

@@ -18,7 +18,13 @@ struct Regroup {
     if (node.is_leaf()) {
       if (node.count() == 0) return KdWideTree::kEmpty;
       wide.leaves.push_back({node.prim_offset, node.count()});
-      return KdWideTree::kLeafRef | static_cast<std::uint32_t>(wide.leaves.size() - 1);
+      if (node.count() < KdWideTree::kIndirect && node.prim_offset < KdWideTree::kFieldLimit)
+        return KdWideTree::kLeafRef | node.prim_offset << KdWideTree::kCountBits | node.count();
+      const std::size_t index = wide.leaves.size() - 1;
+      if (index + 1 >= KdWideTree::kFieldLimit)
+        throw Error("kd-tree", "too many leaves for the wide layout");
+      return KdWideTree::kLeafRef | static_cast<std::uint32_t>(index) << KdWideTree::kCountBits |
+             KdWideTree::kIndirect;
     }
     const std::size_t at = wide.nodes.size();
     if (at >= KdWideTree::kLeafRef) throw Error("kd-tree", "too many nodes for the wide layout");

@@ -36,8 +36,13 @@ struct KdWideLeaf {
 };
 
 struct KdWideTree {
+  // A cell's child: a node index; kEmpty; or kLeafRef | first << 5 | count for a leaf of fewer
+  // than 31 triangles whose references start below 2^26 (read without touching `leaves`: one
+  // dependent load less per leaf a ray visits), else kLeafRef | index << 5 | 31 (see `leaves`).
   static constexpr std::uint32_t kLeafRef = 1u << 31;
   static constexpr std::uint32_t kEmpty = ~0u;
+  static constexpr std::uint32_t kCountBits = 5, kIndirect = (1u << kCountBits) - 1;
+  static constexpr std::uint32_t kFieldLimit = 1u << (31 - kCountBits);
 
   HugePageVector<KdWideNode> nodes;
   HugePageVector<KdWideLeaf> leaves;
@@ -46,6 +51,11 @@ struct KdWideTree {
 
   // The regrouped `tree` (same cells, same leaves).
   static KdWideTree from(const KdTree& tree);
+  // The leaf a child reference (with kLeafRef set) stands for.
+  static KdWideLeaf leaf(std::uint32_t ref, const KdWideLeaf* leaves) {
+    const std::uint32_t count = ref & kIndirect, field = (ref & ~kLeafRef) >> kCountBits;
+    return count != kIndirect ? KdWideLeaf{field, count} : leaves[field];
+  }
 };
 
 }  // namespace splitray

@@ -57,7 +57,7 @@ class WideWalk {
       if (enter(view_.nodes[ref_])) return next();
     } else {
       if (kInterleaved && !leaf_ready_) {
-        leaf_ = view_.leaves[ref_ & ~KdWideTree::kLeafRef];
+        leaf_ = KdWideTree::leaf(ref_, view_.leaves);
         const char* rows = reinterpret_cast<const char*>(view_.rows->leaf(leaf_.first));
         const char* end = rows + 9 * sizeof(float) * std::size_t{leaf_.count};
         for (const char* line = rows; line < end && line < rows + std::ptrdiff_t{512};
@@ -66,7 +66,7 @@ class WideWalk {
         leaf_ready_ = true;
         return false;
       }
-      if (!kInterleaved) leaf_ = view_.leaves[ref_ & ~KdWideTree::kLeafRef];
+      if (!kInterleaved) leaf_ = KdWideTree::leaf(ref_, view_.leaves);
       leaf_ready_ = false;
       if (intersect_leaf<kAnyHit>(wray_, view_.rows->leaf(leaf_.first), view_.ids + leaf_.first,
                                   leaf_.count, tmin_, tmax_, hit_) &&
@@ -89,10 +89,17 @@ class WideWalk {
   // ref_ is set: prefetch it for the next step (interleaved walks), the walk goes on.
   bool next() {
     if constexpr (kInterleaved) {
-      if (ref_ & KdWideTree::kLeafRef)
-        _mm_prefetch(reinterpret_cast<const char*>(view_.leaves + (ref_ & ~KdWideTree::kLeafRef)),
-                     _MM_HINT_T0);
-      else
+      if (ref_ & KdWideTree::kLeafRef) {
+        if ((ref_ & KdWideTree::kIndirect) != KdWideTree::kIndirect)  // the rows themselves
+          _mm_prefetch(reinterpret_cast<const char*>(view_.rows->leaf(
+                           (ref_ & ~KdWideTree::kLeafRef) >> KdWideTree::kCountBits)),
+                       _MM_HINT_T0);
+        else
+          _mm_prefetch(
+              reinterpret_cast<const char*>(
+                  view_.leaves + ((ref_ & ~KdWideTree::kLeafRef) >> KdWideTree::kCountBits)),
+              _MM_HINT_T0);
+      } else
         _mm_prefetch(reinterpret_cast<const char*>(view_.nodes + ref_), _MM_HINT_T0);
     }
     return false;
