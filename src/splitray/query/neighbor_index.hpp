@@ -23,7 +23,7 @@ struct NeighborIndexConfig {
   // builder "neural" (paper 003): model file (empty = the shipped one) and leaf expander.
   std::string model{};
   std::string expand{};
-  int top_min_points = 4096;  // builder "neural": see PointTreeConfig
+  int top_min_points = kNeuralTopMinPrims;  // builder "neural": see PointTreeConfig
 };
 
 class NeighborIndex {

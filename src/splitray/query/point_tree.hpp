@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "splitray/accel/accel.hpp"  // kNeuralTopMinPrims
 #include "splitray/core/aabb.hpp"
 #include "splitray/query/neighbors.hpp"
 
@@ -34,7 +35,8 @@ struct PointTreeConfig {
   // builder that expands the inferred top's leaf cells (empty = vvh).
   std::string model{};
   std::string expand{};
-  int top_min_points = 4096;  // inferred-top nodes with fewer points are left to the expander
+  // Inferred-top nodes with fewer points are left to the expander (0: the model's depth).
+  int top_min_points = kNeuralTopMinPrims;
 };
 
 // Interior: the points below have coordinate[axis] <= below_max < above_min <= the points
