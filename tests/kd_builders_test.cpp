@@ -19,6 +19,7 @@
 #include "splitray/accel/kd/clip.hpp"
 #include "splitray/accel/kd/golden_events.hpp"
 #include "splitray/accel/kd/golden_search.hpp"
+#include "splitray/accel/kd/golden_small.hpp"
 #include "splitray/accel/kd/kd_accel.hpp"
 #include "splitray/accel/kd/kd_emit.hpp"
 #include "splitray/accel/kd/kd_sah.hpp"
@@ -334,15 +335,22 @@ TEST(GoldenSearch, BracketListsCountAsTheFullLists) {
     std::size_t before = 0, after = 0;
     for (const auto& [a, b] : s.spans) {
       if (a == b) {
-        if (a < lo) ++before;
-        else if (a > hi) ++after;
-        else inside.planes.push_back(a);
+        if (a < lo)
+          ++before;
+        else if (a > hi)
+          ++after;
+        else
+          inside.planes.push_back(a);
         continue;
       }
-      if (a < lo) ++before;
-      else if (a <= hi) inside.starts.push_back(a);
-      if (b > hi) ++after;
-      else if (b >= lo) inside.ends.push_back(b);
+      if (a < lo)
+        ++before;
+      else if (a <= hi)
+        inside.starts.push_back(a);
+      if (b > hi)
+        ++after;
+      else if (b >= lo)
+        inside.ends.push_back(b);
     }
     std::sort(inside.starts.begin(), inside.starts.end());
     std::sort(inside.ends.begin(), inside.ends.end());
@@ -367,6 +375,65 @@ TEST(GoldenSearch, BracketListsCountAsTheFullLists) {
 }
 
 // Lists made on the spot from a node's PrimRefs equal those the root builds from triangles.
+// The vector exact split of small nodes against the exhaustive sweep of each axis' sorted
+// lists: the same axis, position, counts, side of the in-plane ones, cost bits and evaluations,
+// on random nodes of 1 to 64 primitives (shared bounds, in-plane ones, bounds at the faces)
+// and on nodes of the horse's triangles.
+TEST(GoldenSmall, EqualsTheExhaustiveSweepOfEveryAxis) {
+  const KdSplitCost cost{BuildConfig{}};
+  const auto check = [&](const std::vector<PrimRef>& prims, const Aabb& cell, int trial) {
+    SplitCandidate expected;
+    int expected_axis = -1;
+    std::uint64_t expected_evals = 0;
+    double expected_axis_costs[3];
+    for (int a = 0; a < 3; ++a) {
+      Intervals s;
+      for (const PrimRef& r : prims) s.spans.push_back({r.bounds.lo[a], r.bounds.hi[a]});
+      s.finish();
+      const GoldenSearchResult r =
+          exhaustive_search_axis(s.events(), cell, a, cost, cell.lo[a], cell.hi[a]);
+      expected_evals += r.evals;
+      expected_axis_costs[a] = r.best.cost;
+      if (r.best.valid() && (expected_axis < 0 || r.best.cost < expected.cost))
+        expected = r.best, expected_axis = a;
+    }
+    double axis_costs[3];
+    const BinnedSplit got = find_small_split(prims, cell, cost, axis_costs);
+    ASSERT_EQ(got.axis, expected_axis) << trial;
+    ASSERT_EQ(got.evals, expected_evals) << trial;
+    for (int a = 0; a < 3; ++a)
+      ASSERT_EQ(std::memcmp(&axis_costs[a], &expected_axis_costs[a], sizeof(double)), 0) << trial;
+    if (got.axis < 0) return;
+    ASSERT_EQ(got.position, expected.position) << trial;
+    ASSERT_EQ(std::memcmp(&got.cost, &expected.cost, sizeof(double)), 0) << trial;
+    ASSERT_EQ(got.n_below, expected.n_below) << trial;
+    ASSERT_EQ(got.n_above, expected.n_above) << trial;
+    ASSERT_EQ(got.planar_below, expected.planar_below) << trial;
+  };
+  const Aabb cube{{0, 0, 0}, {10, 10, 10}};  // random_intervals' range on every axis
+  for (int trial = 0; trial < 3000; ++trial) {
+    const std::size_t n = 1 + static_cast<std::size_t>(trial) % kSmallSplitMaxPrims;
+    const float width = trial % 3 == 0 ? 0.5f : 4.0f;
+    std::vector<PrimRef> prims(n);
+    for (int a = 0; a < 3; ++a) {
+      const Intervals s = random_intervals(n, width, 1000 * static_cast<std::uint64_t>(trial) + a);
+      for (std::size_t i = 0; i < n; ++i)
+        prims[i].bounds.lo[a] = s.spans[i].first, prims[i].bounds.hi[a] = s.spans[i].second;
+    }
+    check(prims, cube, trial);
+  }
+  const std::vector<Triangle> tris = horse();
+  for (std::size_t first = 0, trial = 0; first + 64 <= tris.size(); first += 997, ++trial) {
+    std::vector<PrimRef> prims;
+    Aabb cell;
+    for (std::size_t i = 0; i < 1 + trial % 64; ++i) {
+      prims.push_back({tris[first + i].bounds(), static_cast<std::uint32_t>(first + i)});
+      cell.extend(prims.back().bounds);
+    }
+    check(prims, cell, static_cast<int>(trial));
+  }
+}
+
 TEST(GoldenEvents, ListsFromPrimRefsEqualTheRoots) {
   const std::vector<Triangle> tris = horse();
   Aabb cell;
@@ -391,7 +458,8 @@ bool same_tree(const KdTree& a, const KdTree& b);  // below
 
 // Chunks of nodes assembled under a parallel top lay out the tree as flatten_kd does.
 TEST(KdEmit, AssembledChunksEqualFlattenedTree) {
-  // The same tree twice: x < 1 ? (leaf {0, 1}) : (y < 2 ? leaf {2} : (z < 3 ? leaf {} : leaf {3, 4})).
+  // The same tree twice: x < 1 ? (leaf {0, 1}) : (y < 2 ? leaf {2} : (z < 3 ? leaf {} : leaf {3,
+  // 4})).
   const auto leaf = [](std::vector<std::uint32_t> ids) {
     auto n = std::make_unique<KdBuildNode>();
     n->prims = std::move(ids);

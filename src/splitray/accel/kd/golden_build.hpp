@@ -13,7 +13,7 @@
 
 namespace splitray {
 
-// What a predicted build saw at one node it searched (nodes of more than 32 primitives).
+// What a predicted build saw at one node it searched (nodes of more than 64 primitives).
 struct GoldenNodeRecord {
   SplitObservation observation;
   std::optional<SplitPrediction> prediction;

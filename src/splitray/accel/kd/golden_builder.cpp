@@ -5,9 +5,10 @@
 // a node becomes a leaf by the rules shared with every kd builder (kd_sah.hpp).
 //
 // Where a search does not pay, the exact answer is cheaper: an axis with at most 128 events
-// is swept event by event (golden_search.hpp), and a node of at most 32 primitives is
-// finished by golden_small (bounds sorted on the spot, exact sweep), so the search runs on
-// the upper levels, where nodes are large.
+// is swept event by event (golden_search.hpp), and a node of at most 64 primitives (so at
+// most 128 events an axis, which would be swept anyway) is finished by golden_small (every
+// bound costed, its counts by vector compares), so the search runs on the upper levels,
+// where nodes are large.
 //
 // Cost evaluations (counted in KdBuildResult::cost_evals), measured on the horse (16.8k
 // triangles) and the dragon (100k): an axis searched by golden section takes 17.5 on
@@ -45,7 +46,8 @@ namespace {
 
 constexpr std::size_t kParallelSubtree = 2048;  // prims above which children build in parallel
 constexpr std::size_t kParallelNode = 32768;    // prims above which one node's work is parallel
-constexpr std::size_t kSmallPrims = 32;         // nodes this small finish on PrimRef arrays
+constexpr std::size_t kSmallPrims = 64;         // nodes this small finish on PrimRef arrays
+static_assert(kSmallPrims <= kSmallSplitMaxPrims);
 
 // The records of a subtree in depth-first order: the node's own (and its sequential
 // subtree's), then the parts of its children built as tasks.
@@ -165,7 +167,7 @@ class GoldenBuilder {
 
  private:
   struct Decision {
-    int axis = -1;          // -1: a leaf
+    int axis = -1;           // -1: a leaf
     bool predicted = false;  // decided by the prediction alone
   };
 
@@ -208,8 +210,8 @@ class GoldenBuilder {
       Aabb below_content, above_content;
       partition_binned(refs, triangles_, cell, b, below, above, below_content, above_content,
                        false);
-      build_refs(below, below_cell, depth + 1, path_child(path, false), nodes, scratch, out,
-                 evals, rec);
+      build_refs(below, below_cell, depth + 1, path_child(path, false), nodes, scratch, out, evals,
+                 rec);
       out.set_interior(index, axis, split.position);
       build_refs(above, above_cell, depth + 1, path_child(path, true), nodes, scratch, out, evals,
                  rec);
@@ -354,8 +356,8 @@ class GoldenBuilder {
     if (!done) {
       const auto search = [&](int axis) {
         if (!searched[axis] && cell.lo[axis] < cell.hi[axis])
-          axes[axis] = golden_search_axis(prims.axis_events(axis), cell, axis, cost_,
-                                          cell.lo[axis], cell.hi[axis]);
+          axes[axis] = golden_search_axis(prims.axis_events(axis), cell, axis, cost_, cell.lo[axis],
+                                          cell.hi[axis]);
       };
       if (parallel)
         tbb::parallel_invoke([&] { search(0); }, [&] { search(1); }, [&] { search(2); });
@@ -450,8 +452,8 @@ KdBuildResult build_kd_golden_steered(std::span<const Triangle> triangles, const
   const GoldenBuilder builder(triangles, config, prims.size(), predictor, records != nullptr);
   KdBuildResult result;
   RecordPart rec;
-  std::unique_ptr<KdPartial> top = builder.build_task(prims, cell, 0, kRootPath, result.cost_evals,
-                                                      records ? &rec : nullptr);
+  std::unique_ptr<KdPartial> top =
+      builder.build_task(prims, cell, 0, kRootPath, result.cost_evals, records ? &rec : nullptr);
   result.tree = assemble_kd(*top, cell);
   if (records) {
     records->clear();

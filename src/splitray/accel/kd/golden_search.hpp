@@ -35,13 +35,21 @@ class KdAxisCost {
   }
 
   double operator()(float position, std::size_t n_below, std::size_t n_above) const {
-    const double below = position - lo_, above = hi_ - position;
+    return (*this)(position, static_cast<double>(n_below), static_cast<double>(n_above));
+  }
+  double operator()(float position, double n_below, double n_above) const {
+    return (*this)(extent_below(position), extent_above(position), n_below, n_above);
+  }
+  // The same from the two cells' extents along the axis and the counts as doubles (exact
+  // for any count): the form a loop over many positions vectorises.
+  double extent_below(float position) const { return position - lo_; }
+  double extent_above(float position) const { return hi_ - position; }
+  double operator()(double below, double above, double n_below, double n_above) const {
     const double p_below = (cap_ + below * ring_) * inv_area_;
     const double p_above = (cap_ + above * ring_) * inv_area_;
     const double lambda = (n_below == 0 || n_above == 0) ? cost_.empty_factor : 1.0;
     return lambda *
-           (cost_.traversal + cost_.intersection * (p_below * static_cast<double>(n_below) +
-                                                    p_above * static_cast<double>(n_above)));
+           (cost_.traversal + cost_.intersection * (p_below * n_below + p_above * n_above));
   }
 
  private:

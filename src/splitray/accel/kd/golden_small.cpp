@@ -1,137 +1,213 @@
 #include "splitray/accel/kd/golden_small.hpp"
 
-#include <algorithm>
-#include <array>
 #include <bit>
 #include <cstdint>
 #include <limits>
-#include <vector>
+#include <stdexcept>
 
 #include "splitray/accel/kd/golden_search.hpp"
+
+#if defined(__AVX__)
+#include <immintrin.h>
+#endif
 
 namespace splitray {
 
 namespace {
 
-// A float as an unsigned key of the same order (-0 made +0 first, as the sweep compares).
-std::uint32_t order_key(float f) {
-  const std::uint32_t u = std::bit_cast<std::uint32_t>(f + 0.0f);
-  return (u & 0x80000000u) ? ~u : (u | 0x80000000u);
+// One axis of the node's bounds, a lane per primitive; the padding up to a whole vector
+// never counts (lo = +inf is below no position, hi = -inf above none).
+struct AxisLanes {
+  alignas(64) float lo[kSmallSplitMaxPrims];
+  alignas(64) float hi[kSmallSplitMaxPrims];
+  std::size_t n = 0, padded = 0;
+  std::uint64_t planar = 0;  // bit i: primitive i lies in a plane of this axis (lo == hi)
+};
+
+// The primitives' positions relative to a plane at p, as bit masks over the lanes.
+struct PlaneMasks {
+  std::uint64_t lo_below = 0;  // lo < p
+  std::uint64_t lo_at = 0;     // lo == p
+  std::uint64_t hi_above = 0;  // hi > p
+  std::uint64_t hi_at = 0;     // hi == p
+};
+
+#if defined(__AVX512F__)
+constexpr std::size_t kLanes = 16;
+PlaneMasks plane_masks(const AxisLanes& l, float p) {
+  const __m512 v = _mm512_set1_ps(p);
+  PlaneMasks m;
+  for (std::size_t i = 0; i < l.padded; i += kLanes) {
+    const __m512 lo = _mm512_load_ps(l.lo + i), hi = _mm512_load_ps(l.hi + i);
+    m.lo_below |= std::uint64_t{_mm512_cmp_ps_mask(lo, v, _CMP_LT_OQ)} << i;
+    m.lo_at |= std::uint64_t{_mm512_cmp_ps_mask(lo, v, _CMP_EQ_OQ)} << i;
+    m.hi_above |= std::uint64_t{_mm512_cmp_ps_mask(hi, v, _CMP_GT_OQ)} << i;
+    m.hi_at |= std::uint64_t{_mm512_cmp_ps_mask(hi, v, _CMP_EQ_OQ)} << i;
+  }
+  return m;
 }
-float from_key(std::uint32_t k) {
-  return std::bit_cast<float>((k & 0x80000000u) ? (k & 0x7fffffffu) : ~k);
+#elif defined(__AVX__)
+constexpr std::size_t kLanes = 8;
+PlaneMasks plane_masks(const AxisLanes& l, float p) {
+  const __m256 v = _mm256_set1_ps(p);
+  PlaneMasks m;
+  const auto bits = [](__m256 c) {
+    return static_cast<std::uint64_t>(static_cast<unsigned>(_mm256_movemask_ps(c)));
+  };
+  for (std::size_t i = 0; i < l.padded; i += kLanes) {
+    const __m256 lo = _mm256_load_ps(l.lo + i), hi = _mm256_load_ps(l.hi + i);
+    m.lo_below |= bits(_mm256_cmp_ps(lo, v, _CMP_LT_OQ)) << i;
+    m.lo_at |= bits(_mm256_cmp_ps(lo, v, _CMP_EQ_OQ)) << i;
+    m.hi_above |= bits(_mm256_cmp_ps(hi, v, _CMP_GT_OQ)) << i;
+    m.hi_at |= bits(_mm256_cmp_ps(hi, v, _CMP_EQ_OQ)) << i;
+  }
+  return m;
+}
+#else
+constexpr std::size_t kLanes = 1;
+PlaneMasks plane_masks(const AxisLanes& l, float p) {
+  PlaneMasks m;
+  for (std::size_t i = 0; i < l.n; ++i) {
+    const std::uint64_t bit = std::uint64_t{1} << i;
+    if (l.lo[i] < p) m.lo_below |= bit;
+    if (l.lo[i] == p) m.lo_at |= bit;
+    if (l.hi[i] > p) m.hi_above |= bit;
+    if (l.hi[i] == p) m.hi_at |= bit;
+  }
+  return m;
+}
+#endif
+
+void load_axis(std::span<const PrimRef> prims, int axis, AxisLanes& l) {
+  l.n = prims.size();
+  l.padded = (l.n + kLanes - 1) / kLanes * kLanes;
+  l.planar = 0;
+  for (std::size_t i = 0; i < l.n; ++i) {
+    l.lo[i] = prims[i].bounds.lo[axis];
+    l.hi[i] = prims[i].bounds.hi[axis];
+    if (l.lo[i] == l.hi[i]) l.planar |= std::uint64_t{1} << i;
+  }
+  for (std::size_t i = l.n; i < l.padded; ++i) {
+    l.lo[i] = std::numeric_limits<float>::infinity();
+    l.hi[i] = -std::numeric_limits<float>::infinity();
+  }
 }
 
-// Event types in sweep order at one position, as in exhaustive_search_axis: primitives
-// ending there leave the above side first, in-plane ones are placed, starting ones join
-// the below side after the plane is costed.
-enum : std::uint64_t { kEnd = 0, kPlane = 1, kStart = 2 };
+// The distinct bounds strictly inside the cell on one axis, with their counts, and then
+// their costs, a lane each.
+struct Candidates {
+  alignas(64) float position[2 * kSmallSplitMaxPrims];
+  alignas(64) double extent_below[2 * kSmallSplitMaxPrims];  // of the cell below the plane
+  alignas(64) double extent_above[2 * kSmallSplitMaxPrims];
+  alignas(64) double below[2 * kSmallSplitMaxPrims];  // lo < p, in-plane ones at p left out
+  alignas(64) double above[2 * kSmallSplitMaxPrims];  // hi > p, the same
+  alignas(64) double planar[2 * kSmallSplitMaxPrims];
+  alignas(64) double cost_planar_below[2 * kSmallSplitMaxPrims];
+  alignas(64) double cost_planar_above[2 * kSmallSplitMaxPrims];  // inf without in-plane ones
+  std::size_t m = 0;
+};
+
+// Candidates come as lo 0, hi 0, lo 1, ...: p was taken before when a lower lane has a
+// bound at p (a lane's own lo and hi differ unless it is in-plane, with one candidate).
+// Branch-free: every bound is counted and written, and kept (the next one written after it)
+// only when new and inside the cell; which bounds those are is data the branch predictor
+// cannot learn (clipped bounds at the cell's faces, bounds shared by neighbours).
+void collect_candidates(const AxisLanes& lanes, const KdAxisCost& axis_cost, float cell_lo,
+                        float cell_hi, Candidates& c) {
+  std::size_t m = 0;
+  const auto take = [&](float p, std::uint64_t earlier, bool exists) {
+    const PlaneMasks masks = plane_masks(lanes, p);
+    const bool keep =
+        exists && p > cell_lo && p < cell_hi && !((masks.lo_at | masks.hi_at) & earlier);
+    p += 0.0f;  // -0 as +0, as the sweep's order puts them together
+    c.position[m] = p;
+    c.extent_below[m] = axis_cost.extent_below(p);
+    c.extent_above[m] = axis_cost.extent_above(p);
+    c.below[m] = static_cast<double>(std::popcount(masks.lo_below));
+    c.above[m] = static_cast<double>(std::popcount(masks.hi_above));
+    c.planar[m] = static_cast<double>(std::popcount(masks.lo_at & lanes.planar));
+    m += keep;
+  };
+  for (std::size_t i = 0; i < lanes.n; ++i) {
+    const std::uint64_t earlier = (std::uint64_t{1} << i) - 1;
+    take(lanes.lo[i], earlier, true);
+    take(lanes.hi[i], earlier, !(lanes.planar >> i & 1));
+  }
+  c.m = m;
+}
+
+// Both placements of the in-plane primitives costed for every candidate in one loop the
+// compiler vectorises (the same KdAxisCost expression, so the same bits as the sweep's).
+// Not inlined: inlined into its caller, GCC 12 no longer vectorises the loop.
+[[gnu::noinline]] void cost_candidates(const KdAxisCost& axis_cost, Candidates& c) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  const double* __restrict extent_below = c.extent_below;
+  const double* __restrict extent_above = c.extent_above;
+  const double* __restrict below = c.below;
+  const double* __restrict above = c.above;
+  const double* __restrict planar = c.planar;
+  double* __restrict cost_planar_below = c.cost_planar_below;
+  double* __restrict cost_planar_above = c.cost_planar_above;
+  const KdAxisCost cost = axis_cost;  // a local copy: no store in the loop may alias it
+  const std::size_t m = c.m;
+  for (std::size_t k = 0; k < m; ++k) {
+    const double lo = extent_below[k], hi = extent_above[k];
+    cost_planar_below[k] = cost(lo, hi, below[k] + planar[k], above[k]);
+    const double cost_above = cost(lo, hi, below[k], above[k] + planar[k]);
+    cost_planar_above[k] = planar[k] > 0 ? cost_above : kInf;
+  }
+}
 
 }  // namespace
 
-// One sorted array of (position, type) keys per axis and one linear sweep over it: the
-// same positions, counts, costs and ties as exhaustive_search_axis over three sorted lists,
-// with one sort and no three-way merge (small nodes are most of a kd build's nodes).
+// Every distinct bound strictly inside the cell is a candidate; its counts come from one
+// vector compare per bound and lane block instead of a sort and sweep (small nodes are most
+// of a kd build's nodes). Counting as exhaustive_search_axis does: below = lo < p, above =
+// hi > p, in-plane primitives at p on either side; each position is costed once, and ties
+// go to the lower position, then to the in-plane ones below, as in the ascending sweep.
 BinnedSplit find_small_split(std::span<const PrimRef> prims, const Aabb& cell,
                              const KdSplitCost& cost, double* axis_costs) {
-  const std::size_t n = prims.size();
-  constexpr std::size_t kStack = 64;
-  std::array<std::uint64_t, 2 * kStack> stack_keys;
-  std::vector<std::uint64_t> heap_keys;
-  std::uint64_t* keys = stack_keys.data();
-  if (n > kStack) {
-    heap_keys.resize(2 * n);
-    keys = heap_keys.data();
-  }
+  if (prims.size() > kSmallSplitMaxPrims)
+    throw std::logic_error("find_small_split: more primitives than one mask holds");
+  constexpr double kInf = std::numeric_limits<double>::infinity();
   BinnedSplit best;
-  best.cost = std::numeric_limits<double>::infinity();
+  best.cost = kInf;
   if (axis_costs)
-    for (int a = 0; a < 3; ++a) axis_costs[a] = std::numeric_limits<double>::infinity();
+    for (int a = 0; a < 3; ++a) axis_costs[a] = kInf;
+  AxisLanes lanes;
+  Candidates c;
   for (int a = 0; a < 3; ++a) {
     const float cell_lo = cell.lo[a], cell_hi = cell.hi[a];
     if (!(cell_lo < cell_hi)) continue;
-    std::size_t m = 0;
-    for (const PrimRef& r : prims) {
-      const float lo = r.bounds.lo[a], hi = r.bounds.hi[a];
-      if (lo == hi) {
-        keys[m++] = (std::uint64_t{order_key(lo)} << 2) | kPlane;
-      } else {
-        keys[m++] = (std::uint64_t{order_key(lo)} << 2) | kStart;
-        keys[m++] = (std::uint64_t{order_key(hi)} << 2) | kEnd;
-      }
-    }
-    std::sort(keys, keys + m);
+    load_axis(prims, a, lanes);
     const KdAxisCost axis_cost(cost, cell, a);
-    double a_cost = std::numeric_limits<double>::infinity();
-    float a_pos = 0;
-    std::size_t a_below = 0, a_above = 0;
+    collect_candidates(lanes, axis_cost, cell_lo, cell_hi, c);
+    cost_candidates(axis_cost, c);
+    double a_cost = kInf;
+    std::size_t a_k = 0;
     bool a_planar_below = true;
-    std::size_t below = 0, above = n;
-    for (std::size_t i = 0; i < m;) {
-      const std::uint64_t at = keys[i] >> 2;
-      std::size_t counts[3] = {0, 0, 0};
-      for (; i < m && (keys[i] >> 2) == at; ++i) ++counts[keys[i] & 3];
-      const std::size_t planar = counts[kPlane];
-      above -= counts[kEnd] + planar;
-      const float p = from_key(static_cast<std::uint32_t>(at));
-      if (p > cell_lo && p < cell_hi) {
-        double c = axis_cost(p, below + planar, above);
-        ++best.evals;
-        if (c < a_cost)
-          a_cost = c, a_pos = p, a_below = below + planar, a_above = above, a_planar_below = true;
-        if (planar > 0) {
-          c = axis_cost(p, below, above + planar);
-          ++best.evals;
-          if (c < a_cost)
-            a_cost = c, a_pos = p, a_below = below, a_above = above + planar,
-            a_planar_below = false;
-        }
-      }
-      below += counts[kStart] + planar;
+    const auto consider = [&](double cost_k, std::size_t k, bool planar_below) {
+      if (cost_k < a_cost || (cost_k == a_cost && c.position[k] < c.position[a_k]))
+        a_cost = cost_k, a_k = k, a_planar_below = planar_below;
+    };
+    for (std::size_t k = 0; k < c.m; ++k) {
+      consider(c.cost_planar_below[k], k, true);
+      consider(c.cost_planar_above[k], k, false);
+      best.evals += 1 + (c.planar[k] > 0);
     }
-    if (!(a_cost < std::numeric_limits<double>::infinity())) continue;
+    if (!(a_cost < kInf)) continue;
     if (axis_costs) axis_costs[a] = a_cost;
     if (a_cost < best.cost) {
+      const double planar = c.planar[a_k];
       best.cost = a_cost;
       best.axis = a;
-      best.position = a_pos;
-      best.n_below = a_below;
-      best.n_above = a_above;
+      best.position = c.position[a_k];
+      best.n_below = static_cast<std::size_t>(c.below[a_k] + (a_planar_below ? planar : 0));
+      best.n_above = static_cast<std::size_t>(c.above[a_k] + (a_planar_below ? 0 : planar));
       best.planar_below = a_planar_below;
     }
   }
   return best;
-}
-
-void build_small_subtree(const SmallSubtree& build, std::span<const PrimRef> prims,
-                         const Aabb& cell, int depth, BumpArena& arena, std::uint64_t& evals,
-                         KdChunk& out) {
-  const std::size_t n = prims.size();
-  BinnedSplit split;
-  if (n > build.max_leaf && depth < build.max_depth && cell.half_area() > 0) {
-    split = find_small_split(prims, cell, build.cost);
-    evals += split.evals;
-  }
-  if (split.axis < 0 || !(split.cost < build.cost.leaf(n))) {
-    out.nodes.push_back(KdNode::leaf(static_cast<std::uint32_t>(out.prims.size()),
-                                     static_cast<std::uint32_t>(n)));
-    for (const PrimRef& r : prims) out.prims.push_back(r.id);
-    return;
-  }
-  const BumpArena::Mark mark = arena.mark();
-  const std::span<PrimRef> below(arena.allocate<PrimRef>(split.n_below), split.n_below);
-  const std::span<PrimRef> above(arena.allocate<PrimRef>(split.n_above), split.n_above);
-  Aabb below_content, above_content;
-  partition_binned(prims, build.triangles, cell, split, below, above, below_content, above_content,
-                   false);
-  Aabb below_cell = cell, above_cell = cell;
-  below_cell.hi[split.axis] = split.position;
-  above_cell.lo[split.axis] = split.position;
-  const std::size_t index = out.open_interior();
-  build_small_subtree(build, below, below_cell, depth + 1, arena, evals, out);
-  out.set_interior(index, split.axis, split.position);
-  build_small_subtree(build, above, above_cell, depth + 1, arena, evals, out);
-  arena.release(mark);
 }
 
 }  // namespace splitray

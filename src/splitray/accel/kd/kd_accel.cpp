@@ -109,6 +109,7 @@ KdAccel::KdAccel(KdTree tree, std::span<const Triangle> triangles, const BuildCo
     if (node.is_leaf() && node.count() > 0) leaves.emplace_back(node.prim_offset, node.count());
   std::sort(leaves.begin(), leaves.end());
   std::vector<Triangle> leaf;
+  leaf_triangles_.reserve(tree_.prim_ids.size());
   for (const auto& [first, count] : leaves) {
     leaf.clear();
     for (std::uint32_t i = first; i < first + count; ++i)

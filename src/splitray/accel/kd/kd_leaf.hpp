@@ -28,6 +28,10 @@ class KdLeafTriangles {
 
   KdLeafTriangles() = default;
 
+  // Room for the rows of `refs` references in all, so the rows are mapped once (growing by
+  // doubling would touch, and the kernel zero, twice the final size).
+  void reserve(std::size_t refs) { rows_.reserve(9 * refs + kPadding); }
+
   // Appends the rows of one leaf; leaves must be added in the order of their first index.
   void add_leaf(const Triangle* triangles, std::uint32_t n) {
     for (int k = 0; k < 3; ++k)

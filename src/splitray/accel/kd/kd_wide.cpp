@@ -67,7 +67,16 @@ struct Regroup {
 KdWideTree KdWideTree::from(const KdTree& tree) {
   KdWideTree wide;
   if (tree.nodes.empty()) return wide;
-  wide.nodes.reserve(tree.nodes.size() / 6 + 1);
+  // Capacities that are never exceeded, so each array is mapped once: a wide node holds at
+  // least one interior node, and a leaf entry is made per non-empty leaf. (Pages beyond the
+  // final size are never touched, so the excess costs address space only.)
+  std::size_t interiors = 0, leaves = 0;
+  for (const KdNode& node : tree.nodes) {
+    interiors += !node.is_leaf();
+    leaves += node.is_leaf() && node.count() > 0;
+  }
+  wide.nodes.reserve(interiors + 1);
+  wide.leaves.reserve(leaves);
   Regroup regroup{tree, wide};
   wide.root = regroup.ref(0, 0);
   return wide;
