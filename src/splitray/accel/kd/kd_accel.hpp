@@ -24,9 +24,10 @@ std::unique_ptr<Accel> make_kd(std::span<const Triangle> triangles, const BuildC
 //
 // For speed (AVX2 builds) the tree is also kept as (1) the leaves' triangles in SIMD rows
 // (kd_leaf.hpp, 8 triangles per exact test) and (2) a wide layout of three binary levels per
-// node (kd_wide.hpp) for single rays. The batched intersect traces coherent groups of 8 rays
-// as packets over the binary nodes (kd_packet.cpp) and the other rays in interleaved wide
-// walks (kd_wide_traverse.cpp). Every path gives the single-ray answer, bit for bit.
+// node (kd_wide.hpp) for single rays. The batched intersect traces coherent groups of 16 rays
+// (AVX-512; else 8) as packets over the binary nodes (kd_packet.cpp) and the other rays in
+// interleaved wide walks (kd_wide_traverse.cpp). Every path gives the single-ray answer, bit for
+// bit.
 class KdAccel final : public Accel {
  public:
   // `tree` references `triangles` by index. Statistics are taken from the tree; build_ms is
@@ -58,8 +59,18 @@ class KdAccel final : public Accel {
   bool traverse(const Ray& ray, Hit& hit) const;
   template <bool kAnyHit>
   bool scan(const Ray& ray, Hit& hit) const;
-  // Closest hits of 8 rays at once (kd_packet.cpp). False, with nothing written, when the
-  // rays do not suit a packet. Results equal intersect(ray) for each ray.
+  // Closest hits of kPacketRays rays (kd_packet.cpp): as one packet of 16 on AVX-512 CPUs,
+  // else (or when the 16 do not suit one packet) as packets of 8. Returns a bit per group of
+  // 8 rays traced; the other groups' hits are not written. Results equal intersect(ray).
+#if defined(__AVX512F__)
+  static constexpr int kPacketRays = 16;
+#else
+  static constexpr int kPacketRays = 8;
+#endif
+  unsigned intersect_packets(const Ray* rays, Hit* hits) const;
+  // One packet of W::kLanes rays; false, with nothing written, when the rays do not suit one
+  // (direction signs differ, an empty or untraversable ray).
+  template <class W>
   bool intersect_packet(const Ray* rays, Hit* hits) const;
   // Closest hits (into hits[i]) or occlusion (into occluded[i]) of rays i = which[k], k < n,
   // several walks interleaved (kd_wide_traverse.cpp).

@@ -128,17 +128,18 @@ void KdAccel::intersect(std::span<const Ray> rays, std::span<Hit> hits) const {
   if (rays.size() > std::numeric_limits<std::uint32_t>::max())
     throw Error("kd intersect", "more than 2^32 - 1 rays in one call");
   parallel_chunks(rays.size(), 256, [&](std::size_t begin, std::size_t end) {
-    // Coherent groups of 8 as packets (starting at multiples of 8, so the same rays share a
-    // packet for any chunking); the other rays in interleaved single-ray walks.
+    // Coherent groups as packets (starting at multiples of the packet size, so the same
+    // rays share a packet for any chunking); the other rays in interleaved single-ray walks.
     std::vector<std::uint32_t> rest;
     rest.reserve(end - begin);
+    constexpr std::size_t kGroup = kPacketRays;
     for (std::size_t i = begin; i < end;) {
-      if (i % 8 == 0 && i + 8 <= end && intersect_packet(rays.data() + i, hits.data() + i)) {
-        i += 8;
-        continue;
-      }
-      const std::size_t group_end = std::min(end, (i / 8 + 1) * 8);
-      for (; i < group_end; ++i) rest.push_back(static_cast<std::uint32_t>(i));
+      const unsigned done = i % kGroup == 0 && i + kGroup <= end
+                                ? intersect_packets(rays.data() + i, hits.data() + i)
+                                : 0u;
+      const std::size_t group_end = std::min(end, (i / kGroup + 1) * kGroup);
+      for (; i < group_end; ++i)
+        if (!(done >> ((i % kGroup) / 8) & 1)) rest.push_back(static_cast<std::uint32_t>(i));
     }
     walk_interleaved<false>(rays.data(), rest.data(), rest.size(), hits.data(), nullptr);
   });
