@@ -24,8 +24,8 @@ std::unique_ptr<Accel> make_kd(std::span<const Triangle> triangles, const BuildC
 //
 // For speed (AVX2 builds) the tree is also kept as (1) the leaves' triangles in SIMD rows
 // (kd_leaf.hpp, 8 triangles per exact test) and (2) a wide layout of three binary levels per
-// node (kd_wide.hpp) for single rays. The batched intersect traces coherent groups of 16 rays
-// (AVX-512; else 8) as packets over the binary nodes (kd_packet.cpp) and the other rays in
+// node (kd_wide.hpp). The batched intersect traces coherent groups of 16 rays (AVX-512;
+// else 8) as packets, plane by plane through the wide nodes (kd_packet.cpp) and the other rays in
 // interleaved wide walks (kd_wide_traverse.cpp). Every path gives the single-ray answer, bit for
 // bit.
 class KdAccel final : public Accel {
@@ -87,7 +87,7 @@ class KdAccel final : public Accel {
   bool traverse_wide(const Ray& ray, const KdRaySetup& setup, Hit& hit) const;
 
   KdTree tree_;
-  KdWideTree wide_;                 // the same tree, three levels per node, for single rays
+  KdWideTree wide_;                 // the same tree, three levels per node, for the walks
   KdLeafTriangles leaf_triangles_;  // the triangles of every leaf, in the order of prim_ids
   float coord_scale_ = 0;           // largest absolute coordinate of the root cell
   // Interleave walks only for trees larger than about an L2 cache: in a tree that stays in
