@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <bit>
 #include <cstring>
 #include <limits>
 #include <map>
@@ -79,6 +80,9 @@ Intervals random_intervals(std::size_t n, float max_width, std::uint64_t seed) {
   return s;
 }
 
+// A double's bits, to compare results for bit-identity.
+std::uint64_t bits(double x) { return std::bit_cast<std::uint64_t>(x); }
+
 // The SAH at `p` by counting every interval, planar ones on their cheaper side.
 double brute_cost(const Intervals& s, const KdSplitCost& cost, float p,
                   std::size_t* below_out = nullptr, std::size_t* above_out = nullptr) {
@@ -123,7 +127,7 @@ TEST(KdAxisCost, EqualsKdSplitCostBitForBit) {
     const std::size_t nb = rng.next_u32() % 50, na = rng.next_u32() % 3;
     const double expected = cost.split(box, axis, p, nb, na);
     const double got = KdAxisCost(cost, box, axis)(p, nb, na);
-    ASSERT_EQ(std::memcmp(&expected, &got, sizeof expected), 0) << i;
+    ASSERT_EQ(bits(expected), bits(got)) << i;
   }
 }
 
@@ -402,10 +406,10 @@ TEST(GoldenSmall, EqualsTheExhaustiveSweepOfEveryAxis) {
     ASSERT_EQ(got.axis, expected_axis) << trial;
     ASSERT_EQ(got.evals, expected_evals) << trial;
     for (int a = 0; a < 3; ++a)
-      ASSERT_EQ(std::memcmp(&axis_costs[a], &expected_axis_costs[a], sizeof(double)), 0) << trial;
+      ASSERT_EQ(bits(axis_costs[a]), bits(expected_axis_costs[a])) << trial;
     if (got.axis < 0) return;
     ASSERT_EQ(got.position, expected.position) << trial;
-    ASSERT_EQ(std::memcmp(&got.cost, &expected.cost, sizeof(double)), 0) << trial;
+    ASSERT_EQ(bits(got.cost), bits(expected.cost)) << trial;
     ASSERT_EQ(got.n_below, expected.n_below) << trial;
     ASSERT_EQ(got.n_above, expected.n_above) << trial;
     ASSERT_EQ(got.planar_below, expected.planar_below) << trial;
@@ -561,7 +565,9 @@ void check_builders(const std::string& path) {
       config.builder = builder;
       config.threads = threads;
       auto kd = make_accel("kd", c.tris, config);
-      const std::string what = path + " builder " + builder + " threads " + std::to_string(threads);
+      std::string what = path;
+      what += " builder " + builder;
+      what += " threads " + std::to_string(threads);
       test::expect_same_answers(c.brute, test::answers_of(*kd, c.rays), c.rays, what);
       const AccelStats& s = kd->stats();
       EXPECT_EQ(s.builder, builder);

@@ -16,7 +16,8 @@ class BumpArena {
     std::size_t block, offset;
   };
 
-  explicit BumpArena(std::size_t block_bytes = 256 * 1024) : block_bytes_(block_bytes) {}
+  explicit BumpArena(std::size_t block_bytes = std::size_t{256} * 1024)
+      : block_bytes_(block_bytes) {}
 
   Mark mark() const { return {block_, offset_}; }
   void release(Mark m) { block_ = m.block, offset_ = m.offset; }

@@ -144,7 +144,9 @@ class GoldenBuilder {
     GoldenPrims below, above;
     split_golden_prims(prims, triangles_, cell, axis, split.position, split.planar_below, below,
                        above, split_options(prims.size(), depth, nullptr, nullptr));
-    const auto [below_cell, above_cell] = child_cells(cell, axis, split.position);
+    // (A pair, not a structured binding: the lambdas below capture the cells.)
+    const std::pair<Aabb, Aabb> cells = child_cells(cell, axis, split.position);
+    const Aabb &below_cell = cells.first, &above_cell = cells.second;
     part->axis = axis;
     part->split = split.position;
     std::uint64_t eb = 0, ea = 0;

@@ -186,8 +186,9 @@ bool KdAccel::intersect_packet(const Ray* rays, Hit* hits) const {
         below_full = node.occupied() & kCellsUnder[2 * p + 1];
         above_full = node.occupied() & kCellsUnder[2 * p + 2];
       } else {
-        below = {node.child[2 * (p - 3)], -1};
-        above = {node.child[2 * (p - 3) + 1], -1};
+        const std::uint32_t* cells = node.child + 2 * static_cast<std::ptrdiff_t>(p - 3);
+        below = {cells[0], -1};
+        above = {cells[1], -1};
         below_full = below.at != KdWideTree::kEmpty;
         above_full = above.at != KdWideTree::kEmpty;
         if (above_full && !(above.at & KdWideTree::kLeafRef))
@@ -248,7 +249,7 @@ unsigned KdAccel::intersect_packets(const Ray* rays, Hit* hits) const {
   if (intersect_packet<Lanes16>(rays, hits)) return (1u << (kPacketRays / 8)) - 1;
 #endif
   unsigned done = 0;
-  for (int group = 0; group < kPacketRays / 8; ++group)
+  for (std::ptrdiff_t group = 0; group < kPacketRays / 8; ++group)
     if (intersect_packet<Lanes8>(rays + 8 * group, hits + 8 * group)) done |= 1u << group;
   return done;
 }
