@@ -1,6 +1,7 @@
 #include "build_trace.hpp"
 
 #include <fmt/core.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <filesystem>
@@ -17,6 +18,7 @@
 #include "splitray/core/parallel.hpp"
 #include "splitray/core/timer.hpp"
 #include "splitray/io/mesh_io.hpp"
+#include "splitray/io/plot_script.hpp"
 #include "splitray/render/ray_sets.hpp"
 
 namespace splitray::bench {
@@ -198,8 +200,9 @@ void add_build_trace_options(CLI::App& command, BuildTraceOptions& options) {
                      "files; default: all present");
   command.add_flag("--quick", options.quick,
                    "Smoke test: the two vendored meshes, 1 run, 65536 rays");
-  command.add_option("--accels", options.accels,
-                     "Structures to measure, each with all its builders (default: kd bih bvh embree)");
+  command.add_option(
+      "--accels", options.accels,
+      "Structures to measure, each with all its builders (default: kd bih bvh embree)");
   command.add_option("--threads", options.threads, "Worker threads (0 = all cores)")
       ->check(CLI::NonNegativeNumber);
   command.add_option("--seed", options.seed, "Seed of the ray sets");
@@ -213,6 +216,9 @@ void add_build_trace_options(CLI::App& command, BuildTraceOptions& options) {
   command.add_option("--json", options.json_path, "Write the full report as JSON to this file");
   command.add_option("--markdown", options.markdown_path,
                      "Write the Markdown tables to this file (default: print them)");
+  command.add_option("--plot", options.plot_path,
+                     "Draw build time and Mrays/s of every structure as ratios to Embree, per "
+                     "mesh, to this PNG (scripts/plot_build_trace.py, /usr/bin/python3)");
 }
 
 Json run_build_trace(const BuildTraceOptions& options) {
@@ -301,7 +307,7 @@ Json run_build_trace(const BuildTraceOptions& options) {
 
 void build_trace_command(const BuildTraceOptions& options) {
   // Fail on an output folder that does not exist before the long run, not after it.
-  for (const std::string& path : {options.json_path, options.markdown_path}) {
+  for (const std::string& path : {options.json_path, options.markdown_path, options.plot_path}) {
     if (path.empty()) continue;
     const auto folder = std::filesystem::absolute(path).parent_path();
     if (!std::filesystem::is_directory(folder))
@@ -314,7 +320,25 @@ void build_trace_command(const BuildTraceOptions& options) {
     write_file_atomically(options.markdown_path, markdown);
   else
     fmt::print("{}", markdown);
-  for (const std::string& path : {options.json_path, options.markdown_path})
+  if (!options.plot_path.empty()) {
+    // The script reads the JSON report: the --json file, else a temporary copy.
+    const bool temporary = options.json_path.empty();
+    const std::string json_path = temporary
+                                      ? (std::filesystem::temp_directory_path() /
+                                         fmt::format("splitray-build-trace-{}.json", ::getpid()))
+                                            .string()
+                                      : options.json_path;
+    if (temporary) write_file_atomically(json_path, report.dump(2) + "\n");
+    std::error_code ec;
+    try {
+      run_plot_script("plot_build_trace.py", options.plot_path, json_path);
+    } catch (...) {
+      if (temporary) std::filesystem::remove(json_path, ec);
+      throw;
+    }
+    if (temporary) std::filesystem::remove(json_path, ec);
+  }
+  for (const std::string& path : {options.json_path, options.markdown_path, options.plot_path})
     if (!path.empty()) fmt::print(stderr, "wrote {}\n", path);
 }
 

@@ -26,6 +26,7 @@ struct BuildTraceOptions {
   float traversal_cost = BuildConfig{}.traversal_cost;
   float intersection_cost = BuildConfig{}.intersection_cost;
   std::string json_path, markdown_path;
+  std::string plot_path;  // PNG of the ratios to Embree (scripts/plot_build_trace.py)
 };
 
 // Adds the options above to `command` (the same in both programs).

@@ -16,6 +16,7 @@
 #include "splitray/core/parallel.hpp"
 #include "splitray/core/timer.hpp"
 #include "splitray/io/mesh_io.hpp"
+#include "splitray/io/plot_script.hpp"
 #include "splitray/render/data_dir.hpp"
 #include "splitray/render/default_scene.hpp"
 #include "splitray/render/shapes.hpp"
@@ -66,7 +67,8 @@ void place(Scene& scene, Mesh mesh, std::uint32_t material, float size,
   const auto index = static_cast<std::uint32_t>(scene.meshes.size() - 1);
   for (const Spot& s : spots)
     scene.instances.push_back(
-        {index, Transform::translate({s.x, 0, s.z}) * Transform::rotate({0, 1, 0}, s.degrees) * base,
+        {index,
+         Transform::translate({s.x, 0, s.z}) * Transform::rotate({0, 1, 0}, s.degrees) * base,
          material});
 }
 
@@ -92,8 +94,8 @@ Camera parse_camera_option(const std::string& text) {
     }
   }
   if (v.size() != 6 && v.size() != 7)
-    throw Error("--camera", "expected EX,EY,EZ,TX,TY,TZ[,FOV], got " + std::to_string(v.size()) +
-                                " numbers");
+    throw Error("--camera",
+                "expected EX,EY,EZ,TX,TY,TZ[,FOV], got " + std::to_string(v.size()) + " numbers");
   Camera c;
   c.eye = {v[0], v[1], v[2]};
   c.target = {v[3], v[4], v[5]};
@@ -102,18 +104,6 @@ Camera parse_camera_option(const std::string& text) {
 }
 
 std::string fmt_ms(double ms) { return fmt::format("{:.1f}", ms); }
-
-// scripts/plot_hybrid.py beside the source tree: $SPLITRAY_SOURCE_DIR, the compiled-in
-// source folder, or the working folder.
-std::string find_plot_script() {
-  std::vector<fs::path> roots;
-  if (const char* env = std::getenv("SPLITRAY_SOURCE_DIR")) roots.emplace_back(env);
-  roots.emplace_back(SPLITRAY_SOURCE_DIR);
-  roots.emplace_back(fs::current_path());
-  for (const fs::path& root : roots)
-    if (fs::exists(root / "scripts" / "plot_hybrid.py")) return (root / "scripts" / "plot_hybrid.py").string();
-  throw Error("--plot", "scripts/plot_hybrid.py not found (set SPLITRAY_SOURCE_DIR to the source tree)");
-}
 
 }  // namespace
 
@@ -126,8 +116,8 @@ Scene hybrid_bench_scene(bool quick, std::vector<std::string>& notes) {
   scene.meshes.push_back(make_quad({-14, 0, 8}, {28, 0, 0}, {0, 0, -24}));
   scene.instances.push_back({0, Transform{}, floor});
 
-  const auto gold = add_material(scene, diffuse("dragon", Vec3{0.78f, 0.45f, 0.12f},
-                                                Vec3{0.45f, 0.40f, 0.30f}, 40));
+  const auto gold = add_material(
+      scene, diffuse("dragon", Vec3{0.78f, 0.45f, 0.12f}, Vec3{0.45f, 0.40f, 0.30f}, 40));
   const auto jade = add_material(scene, diffuse("cat", Vec3{0.25f, 0.55f, 0.35f}, Vec3{0.2f}, 20));
   const auto clay = add_material(scene, diffuse("lion", Vec3{0.70f, 0.38f, 0.30f}));
   Material mirror_material = diffuse("mirror", Vec3{0.04f}, Vec3{0.8f}, 200);
@@ -168,9 +158,9 @@ Scene hybrid_bench_scene(bool quick, std::vector<std::string>& notes) {
   const float radius = 1.85f;
   Mesh sphere = make_icosphere(5);
   scene.meshes.push_back(std::move(sphere));
-  scene.instances.push_back({static_cast<std::uint32_t>(scene.meshes.size() - 1),
-                             Transform::translate({0.3f, radius, 1.0f}) * Transform::scale(Vec3{radius}),
-                             mirror});
+  scene.instances.push_back(
+      {static_cast<std::uint32_t>(scene.meshes.size() - 1),
+       Transform::translate({0.3f, radius, 1.0f}) * Transform::scale(Vec3{radius}), mirror});
 
   Light sun;  // the paper's setup: one directional light
   sun.kind = Light::Kind::directional;
@@ -189,9 +179,10 @@ Scene hybrid_bench_scene(bool quick, std::vector<std::string>& notes) {
 }
 
 void add_hybrid_bench_options(CLI::App& command, HybridBenchOptions& options) {
-  command.add_option("SCENE", options.scene,
-                     "Mesh or JSON scene, or 'default' for the built-in scene of `render` (default: "
-                     ">500k triangles of real meshes with a mirror sphere, ~10% reflective pixels)");
+  command.add_option(
+      "SCENE", options.scene,
+      "Mesh or JSON scene, or 'default' for the built-in scene of `render` (default: "
+      ">500k triangles of real meshes with a mirror sphere, ~10% reflective pixels)");
   command.add_option("--camera", options.camera, "EX,EY,EZ,TX,TY,TZ[,FOV] (default: the scene's)");
   command.add_option("-W,--width", options.width, "Image width")->check(CLI::Range(16, 8192));
   command.add_option("-H,--height", options.height, "Image height")->check(CLI::Range(16, 8192));
@@ -203,7 +194,8 @@ void add_hybrid_bench_options(CLI::App& command, HybridBenchOptions& options) {
       ->check(CLI::Range(1, 100));
   command.add_option("--blur-kernel", options.blur_kernel, "K of the KxK boundary blur (odd)");
   command.add_option("--shadow-map-size", options.shadow_map_size, "Shadow map texels per side");
-  command.add_option("--accel", options.accel, "Structure of the CPU passes (kd, bih, bvh, embree)");
+  command.add_option("--accel", options.accel,
+                     "Structure of the CPU passes (kd, bih, bvh, embree)");
   command.add_option("--threads", options.threads, "CPU threads (0 = all cores)")
       ->check(CLI::NonNegativeNumber);
   command.add_flag("--quick", options.quick, "Smoke test: 320x240, vendored meshes, 1 run");
@@ -212,8 +204,9 @@ void add_hybrid_bench_options(CLI::App& command, HybridBenchOptions& options) {
                      "green: still wrong after refinement) into this folder");
   command.add_option("--json", options.json_path, "Write the JSON report here (atomically)");
   command.add_option("--markdown", options.markdown_path, "Write the Markdown report here");
-  command.add_option("--plot", options.plot_path,
-                     "Write the per-pass bar chart (PNG, scripts/plot_hybrid.py, /usr/bin/python3)");
+  command.add_option(
+      "--plot", options.plot_path,
+      "Write the per-pass bar chart (PNG, scripts/plot_hybrid.py, /usr/bin/python3)");
 }
 
 #if SPLITRAY_HAS_RENDER_GL
@@ -224,11 +217,12 @@ json run_hybrid_bench_report(const HybridBenchOptions& o) {
   const int runs = o.runs > 0 ? o.runs : (o.quick ? 1 : 3);
   std::vector<std::string> notes;
   progress(o.scene.empty() ? "building the benchmark scene ..." : "loading " + o.scene + " ...");
-  const Scene scene = o.scene.empty()       ? hybrid_bench_scene(o.quick, notes)
+  const Scene scene = o.scene.empty()        ? hybrid_bench_scene(o.quick, notes)
                       : o.scene == "default" ? default_scene()
                                              : load_scene(o.scene);
-  const Camera camera = !o.camera.empty() ? parse_camera_option(o.camera)
-                                          : (scene.camera ? *scene.camera : Camera::frame(scene.bounds()));
+  const Camera camera = !o.camera.empty()
+                            ? parse_camera_option(o.camera)
+                            : (scene.camera ? *scene.camera : Camera::frame(scene.bounds()));
   ThreadLimit limit(o.threads);
 
   gl::EglContext context;
@@ -267,7 +261,8 @@ json run_hybrid_bench_report(const HybridBenchOptions& o) {
   }
   const HybridFrame& frame = sequential_frames.front();
   bool interleaved_same = true;
-  for (const HybridFrame& f : interleaved_frames) interleaved_same = interleaved_same && f.image.pixels == frame.image.pixels;
+  for (const HybridFrame& f : interleaved_frames)
+    interleaved_same = interleaved_same && f.image.pixels == frame.image.pixels;
 
   progress(fmt::format("whitted, {} run(s) ...", runs));
   RenderOptions wo;
@@ -301,8 +296,9 @@ json run_hybrid_bench_report(const HybridBenchOptions& o) {
         if (frame.ids[i] == 0) continue;
         for (std::size_t l = 0; l < lights; ++l) {
           std::uint64_t rays = 0;
-          const bool lit = exact.exact_visibility(camera, width, height, x, static_cast<int>(y),
-                                                  frame.ids[i] - 1, static_cast<int>(l), rays) > 0.5f;
+          const bool lit =
+              exact.exact_visibility(camera, width, height, x, static_cast<int>(y),
+                                     frame.ids[i] - 1, static_cast<int>(l), rays) > 0.5f;
           rows[y][0] += 1;
           rows[y][1] += (frame.mask[i][l] > 0.5f) != lit;
           rows[y][2] += (frame.refined[i][l] > 0.5f) != lit;
@@ -371,15 +367,15 @@ json run_hybrid_bench_report(const HybridBenchOptions& o) {
   report["shadow_wrong_unrefined"] = wrong_raw;
   report["shadow_wrong_refined"] = wrong_refined;
   report["shadow_wrong_fixed_share"] = fixed_share;
-  report["targets"] = {
-      {"cpu_ray_share_max", kMaxCpuRayShare},
-      {"cpu_ray_share_met", ray_share <= kMaxCpuRayShare},
-      {"psnr_db_min", kMinPsnrDb},
-      {"psnr_met", psnr >= kMinPsnrDb},
-      {"shadow_fixed_share_min", kMinShadowFixShare},
-      {"shadow_fixed_met", fixed_share >= kMinShadowFixShare},
-      {"frame_time_targets", "reported, not targeted on a software rasteriser (llvmpipe): "
-                             "hybrid <= 0.5x whitted and interleaved >= 1.3x sequential need a GPU"}};
+  report["targets"] = {{"cpu_ray_share_max", kMaxCpuRayShare},
+                       {"cpu_ray_share_met", ray_share <= kMaxCpuRayShare},
+                       {"psnr_db_min", kMinPsnrDb},
+                       {"psnr_met", psnr >= kMinPsnrDb},
+                       {"shadow_fixed_share_min", kMinShadowFixShare},
+                       {"shadow_fixed_met", fixed_share >= kMinShadowFixShare},
+                       {"frame_time_targets",
+                        "reported, not targeted on a software rasteriser (llvmpipe): "
+                        "hybrid <= 0.5x whitted and interleaved >= 1.3x sequential need a GPU"}};
   report["notes"] = notes;
   report["machine"] = machine_json(o.threads);
   return report;
@@ -395,21 +391,26 @@ json run_hybrid_bench_report(const HybridBenchOptions&) {
 
 std::string hybrid_markdown_report(const json& r) {
   std::string md = "# Hybrid GPU + CPU renderer (paper 002) against Whitted\n\n";
-  md += fmt::format("Scene: {}, {} triangles, {}x{}, max depth {}, {} light(s); GL renderer: `{}`.\n\n",
-                    r["scene"].get<std::string>(), r["triangles"].get<std::size_t>(),
-                    r["width"].get<int>(), r["height"].get<int>(), r["max_depth"].get<int>(),
-                    r["lights"].get<std::size_t>(), r["gl_renderer"].get<std::string>());
+  md += fmt::format(
+      "Scene: {}, {} triangles, {}x{}, max depth {}, {} light(s); GL renderer: `{}`.\n\n",
+      r["scene"].get<std::string>(), r["triangles"].get<std::size_t>(), r["width"].get<int>(),
+      r["height"].get<int>(), r["max_depth"].get<int>(), r["lights"].get<std::size_t>(),
+      r["gl_renderer"].get<std::string>());
   md += "| measure | value |\n|---|---|\n";
-  const auto row = [&](const std::string& k, const std::string& v) { md += "| " + k + " | " + v + " |\n"; };
+  const auto row = [&](const std::string& k, const std::string& v) {
+    md += "| " + k + " | " + v + " |\n";
+  };
   row("hybrid frame, interleaved (ms)", fmt_ms(r["hybrid_ms"]));
   row("hybrid frame, sequential passes (ms)", fmt_ms(r["sequential_ms"]));
   row("whitted frame (ms)", fmt_ms(r["whitted_ms"]));
   row("hybrid / whitted time", fmt::format("{:.2f}", r["hybrid_vs_whitted"].get<double>()));
-  row("sequential / interleaved time", fmt::format("{:.2f}", r["interleaved_speedup"].get<double>()));
+  row("sequential / interleaved time",
+      fmt::format("{:.2f}", r["interleaved_speedup"].get<double>()));
   for (const auto& [pass, ms] : r["pass_ms"].items()) row("pass " + pass + " (ms)", fmt_ms(ms));
   row("CPU rays hybrid / whitted",
       fmt::format("{} / {} = {:.1f}%", r["cpu_rays_hybrid"].get<std::uint64_t>(),
-                  r["cpu_rays_whitted"].get<std::uint64_t>(), 100 * r["cpu_ray_share"].get<double>()));
+                  r["cpu_rays_whitted"].get<std::uint64_t>(),
+                  100 * r["cpu_ray_share"].get<double>()));
   row("CPU rays: boundary shadow / secondary (with their shadow rays)",
       fmt::format("{} / {}", r["cpu_rays_boundary"].get<std::uint64_t>(),
                   r["cpu_rays_secondary"].get<std::uint64_t>()));
@@ -421,19 +422,24 @@ std::string hybrid_markdown_report(const json& r) {
   row("wrong shadow states, shadow map only",
       fmt::format("{} of {}", r["shadow_wrong_unrefined"].get<std::uint64_t>(),
                   r["shadow_tests"].get<std::uint64_t>()));
-  row("wrong shadow states, refined", std::to_string(r["shadow_wrong_refined"].get<std::uint64_t>()));
-  row("shadow-map errors removed", fmt::format("{:.1f}%", 100 * r["shadow_wrong_fixed_share"].get<double>()));
+  row("wrong shadow states, refined",
+      std::to_string(r["shadow_wrong_refined"].get<std::uint64_t>()));
+  row("shadow-map errors removed",
+      fmt::format("{:.1f}%", 100 * r["shadow_wrong_fixed_share"].get<double>()));
   const json& t = r["targets"];
   md += "\n| target (every machine) | met |\n|---|---|\n";
-  md += fmt::format("| CPU rays <= {:.0f}% of whitted's | {} |\n", 100 * t["cpu_ray_share_max"].get<double>(),
+  md += fmt::format("| CPU rays <= {:.0f}% of whitted's | {} |\n",
+                    100 * t["cpu_ray_share_max"].get<double>(),
                     t["cpu_ray_share_met"].get<bool>() ? "yes" : "**no**");
   md += fmt::format("| PSNR >= {:.0f} dB | {} |\n", t["psnr_db_min"].get<double>(),
                     t["psnr_met"].get<bool>() ? "yes" : "**no**");
   md += fmt::format("| refinement removes >= {:.0f}% of wrong shadow pixels | {} |\n",
                     100 * t["shadow_fixed_share_min"].get<double>(),
                     t["shadow_fixed_met"].get<bool>() ? "yes" : "**no**");
-  md += "\nFrame-time targets (hybrid <= 0.5x whitted, interleaved >= 1.3x sequential) apply where a "
-        "real GPU drives OpenGL; on llvmpipe the rasteriser shares the CPU, so they are reported only.\n";
+  md +=
+      "\nFrame-time targets (hybrid <= 0.5x whitted, interleaved >= 1.3x sequential) apply where a "
+      "real GPU drives OpenGL; on llvmpipe the rasteriser shares the CPU, so they are reported "
+      "only.\n";
   for (const auto& n : r["notes"]) md += "\nNote: " + n.get<std::string>() + "\n";
   return md;
 }
@@ -442,18 +448,17 @@ int run_hybrid_bench(const HybridBenchOptions& options) {
   const json report = run_hybrid_bench_report(options);
   const std::string markdown = hybrid_markdown_report(report);
   if (!options.json_path.empty()) write_file_atomically(options.json_path, report.dump(2) + "\n");
-  if (!options.markdown_path.empty()) write_file_atomically(options.markdown_path, markdown);
-  else std::cout << markdown;
+  if (!options.markdown_path.empty())
+    write_file_atomically(options.markdown_path, markdown);
+  else
+    std::cout << markdown;
   if (!options.plot_path.empty()) {
     std::string json_path = options.json_path;
     if (json_path.empty()) {
       json_path = (fs::temp_directory_path() / "splitray_hybrid_bench.json").string();
       write_file_atomically(json_path, report.dump(2) + "\n");
     }
-    const std::string command = fmt::format("/usr/bin/python3 '{}' --out '{}' '{}'",
-                                            find_plot_script(), options.plot_path, json_path);
-    if (std::system(command.c_str()) != 0)
-      throw Error("--plot " + options.plot_path, "the plotting script failed");
+    run_plot_script("plot_hybrid.py", options.plot_path, json_path);
   }
   const json& t = report["targets"];
   return t["cpu_ray_share_met"].get<bool>() && t["psnr_met"].get<bool>() &&

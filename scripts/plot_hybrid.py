@@ -9,8 +9,6 @@ usage: /usr/bin/python3 scripts/plot_hybrid.py --out FILE.png REPORT.json
 """
 import argparse
 import json
-import os
-import tempfile
 
 import matplotlib
 
@@ -66,16 +64,8 @@ def main():
     fig.suptitle(f"splitray bench hybrid (paper 002 Fig. 6, 8/9) - GL: {r['gl_renderer']}, "
                  f"PSNR vs whitted {r['psnr_db']:.1f} dB", fontsize=10)
     fig.tight_layout()
-    # Atomic: a temporary file in the same folder, renamed into place.
-    folder = os.path.dirname(os.path.abspath(args.out))
-    fd, tmp = tempfile.mkstemp(suffix=".png", dir=folder)
-    os.close(fd)
-    try:
-        fig.savefig(tmp, dpi=110)
-        os.replace(tmp, args.out)
-    except BaseException:
-        os.unlink(tmp)
-        raise
+    # (splitray runs this on a temporary name and renames the picture into place.)
+    fig.savefig(args.out, dpi=110)
 
 
 if __name__ == "__main__":

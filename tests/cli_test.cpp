@@ -361,10 +361,11 @@ TEST_F(Cli, AnimateRefitsABvhOnHorseCollapse) {
   const std::string common = "animate " + frames + " --frames 4 --rays 3000 -t 1";
   const json kd = run_json(common + " --predictor kalman");
   const fs::path results = dir_ / "animate.json", md = dir_ / "animate.md";
-  std::ofstream(md) << "# Prose before\n\n| sequence / predictor | old |\n|---|---|\n| x | 1 |\n\nafter\n";
+  std::ofstream(md)
+      << "# Prose before\n\n| sequence / predictor | old |\n|---|---|\n| x | 1 |\n\nafter\n";
   for (const char* builder : {"binned", "sbvh"}) {
-    const json bvh = run_json(common + " --accel bvh --refit --builder " + builder +
-                              " --results " + quote(results.string()));
+    const json bvh = run_json(common + " --accel bvh --refit --builder " + builder + " --results " +
+                              quote(results.string()));
     for (const auto& [key, value] : kd.items())
       EXPECT_TRUE(bvh.contains(key)) << "animate --refit lacks the summary key " << key;
     EXPECT_EQ(bvh.value("accel", ""), "bvh");
@@ -390,6 +391,34 @@ TEST_F(Cli, AnimateRefitsABvhOnHorseCollapse) {
   expect_failure(common + " --accel kd --refit", "--refit");
   expect_failure(common + " --accel bvh", "--refit");
   expect_failure(common + " --accel bvh --refit --builder nope", "nope");
+}
+
+// --plot of bench build-trace and animate: a whole PNG (drawn by scripts/plot_*.py) and no
+// other file left; an output folder that does not exist is refused before any work.
+TEST_F(Cli, PlotsAreWholePngsAndLeaveNothingElse) {
+  const fs::path png = dir_ / "build_trace.png";
+  const Result bench =
+      run("bench build-trace --quick --accels kd embree --runs 1 --rays 2048 "
+          "--markdown " +
+          quote((dir_ / "bt.md").string()) + " --plot " + quote(png.string()));
+  ASSERT_EQ(bench.status, 0) << bench.err;
+  const std::string bytes = read_text(png);
+  ASSERT_GE(bytes.size(), 8u);
+  EXPECT_EQ(bytes.substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
+  EXPECT_EQ(leftovers(dir_, {"build_trace.png", "bt.md"}), std::vector<std::string>{});
+  expect_failure("bench build-trace --quick --plot " + quote((dir_ / "absent" / "x.png").string()),
+                 "absent");
+
+  SPLITRAY_REQUIRE_SHARED(first, "anim_horse_collapse/frames/horse-collapse-01.obj.gz");
+  const std::string frames =
+      quote((fs::path(first).parent_path() / "horse-collapse-%02d.obj.gz").string());
+  const fs::path plot = dir_ / "animate.png";
+  const Result animate =
+      run("animate " + frames + " --frames 3 --rays 0 -t 1 --plot " + quote(plot.string()));
+  ASSERT_EQ(animate.status, 0) << animate.err;
+  EXPECT_EQ(read_text(plot).substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
+  EXPECT_EQ(leftovers(dir_, {"build_trace.png", "bt.md", "animate.png"}),
+            std::vector<std::string>{});
 }
 
 }  // namespace

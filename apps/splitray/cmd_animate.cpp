@@ -26,6 +26,7 @@
 #include "splitray/core/scene.hpp"
 #include "splitray/core/timer.hpp"
 #include "splitray/io/frames.hpp"
+#include "splitray/io/plot_script.hpp"
 #include "splitray/render/ray_sets.hpp"
 #include "splitray/render/whitted.hpp"
 
@@ -104,31 +105,6 @@ std::string csv_text(const std::vector<FrameRow>& rows, const FrameSequence& fra
         r.trace_ms_full, r.trace_ms_predicted, r.hit_mismatches, frames.label(i));
   }
   return out.str();
-}
-
-// scripts/plot_animate.py beside the source tree: $SPLITRAY_SOURCE_DIR, the folders above the
-// executable, or the working folder.
-std::string find_plot_script() {
-  std::vector<fs::path> roots;
-  if (const char* env = std::getenv("SPLITRAY_SOURCE_DIR")) roots.emplace_back(env);
-  std::error_code ec;
-  fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-  for (int up = 0; !ec && up < 4 && exe.has_parent_path(); ++up) {
-    exe = exe.parent_path();
-    roots.push_back(exe);
-  }
-  roots.push_back(fs::current_path());
-  for (const fs::path& root : roots)
-    if (fs::exists(root / "scripts" / "plot_animate.py"))
-      return (root / "scripts" / "plot_animate.py").string();
-  throw Error("--plot",
-              "scripts/plot_animate.py not found (set SPLITRAY_SOURCE_DIR to the source tree)");
-}
-
-void plot(const std::string& csv_path, const std::string& png) {
-  const std::string command =
-      fmt::format("/usr/bin/python3 '{}' --out '{}' '{}'", find_plot_script(), png, csv_path);
-  if (std::system(command.c_str()) != 0) throw Error("--plot " + png, "the plotting script failed");
 }
 
 double trace_ms(const Accel& accel, std::span<const Ray> rays, std::vector<Hit>& hits) {
@@ -455,7 +431,12 @@ void report(const AnimateCommand& command, const FrameSequence& sequence,
     const fs::path tmp =
         fs::temp_directory_path() / fmt::format("splitray-animate-{}.csv", ::getpid());
     write_file_atomically(tmp.string(), csv);
-    plot(tmp.string(), command.plot);
+    try {
+      run_plot_script("plot_animate.py", command.plot, tmp.string());
+    } catch (...) {
+      fs::remove(tmp);
+      throw;
+    }
     fs::remove(tmp);
   }
 
