@@ -58,7 +58,7 @@ struct Intervals {
 };
 
 // n intervals in the cell of width up to `max_width`; some in-plane, some sharing bounds,
-// some at the cell's faces, so every counting rule is exercised.
+// some at the cell's faces (some in-plane there), so every counting rule is exercised.
 Intervals random_intervals(std::size_t n, float max_width, std::uint64_t seed) {
   Pcg32 rng(seed);
   Intervals s;
@@ -73,6 +73,7 @@ Intervals random_intervals(std::size_t n, float max_width, std::uint64_t seed) {
     if (kind == 2) a = lo;                                 // at the cell's face
     if (kind == 3) b = hi;
     if (kind == 4 && !s.spans.empty()) a = b = s.spans[rng.next_u32() % s.spans.size()].second;
+    if (kind == 5) a = b = rng.next_u32() % 2 ? lo : hi;  // in a face of the cell
     if (a > b) std::swap(a, b);
     s.spans.push_back({a, b});
   }
@@ -103,15 +104,29 @@ double brute_cost(const Intervals& s, const KdSplitCost& cost, float p,
   return go_below ? c_below : c_above;
 }
 
-// The exact minimum: every distinct bound strictly inside the cell.
+// The exact minimum: every distinct bound strictly inside the cell, and each face holding
+// in-plane intervals, which it cuts off into a flat cell (the planar rule of kd_sah.hpp).
 SplitCandidate brute_minimum(const Intervals& s, const KdSplitCost& cost) {
   std::set<float> candidates;
   for (const auto& [lo, hi] : s.spans) candidates.insert(lo), candidates.insert(hi);
+  const float face_lo = kCell.lo[kAxis], face_hi = kCell.hi[kAxis];
+  std::size_t at_lo = 0, at_hi = 0;
+  for (const auto& [lo, hi] : s.spans) {
+    at_lo += lo == hi && lo == face_lo;
+    at_hi += lo == hi && lo == face_hi;
+  }
+  const std::size_t n = s.spans.size();
   SplitCandidate best;
+  if (at_lo > 0)
+    best.cost = cost.split(kCell, kAxis, face_lo, at_lo, n - at_lo), best.position = face_lo;
   for (const float p : candidates) {
-    if (!(p > kCell.lo[kAxis] && p < kCell.hi[kAxis])) continue;
+    if (!(p > face_lo && p < face_hi)) continue;
     const double c = brute_cost(s, cost, p);
     if (c < best.cost) best.cost = c, best.position = p;
+  }
+  if (at_hi > 0) {
+    const double c = cost.split(kCell, kAxis, face_hi, n - at_hi, at_hi);
+    if (c < best.cost) best.cost = c, best.position = face_hi;
   }
   return best;
 }

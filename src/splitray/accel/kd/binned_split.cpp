@@ -26,17 +26,34 @@ struct AxisBins {
   }
 };
 
-// Histograms [axis][lo / hi][bins] of the bins of the primitives' lower and upper bounds.
-void bin_prims(std::span<const PrimRef> prims, const AxisBins* axes, const bool* active,
-               std::uint32_t* hist, std::size_t bins) {
+// Histograms [axis][lo / hi][bins] of the bins of the primitives' lower and upper bounds,
+// then [axis][lower / upper face] the primitives lying in each face of the cell, counted only
+// where the content reaches that face (`faces`: bit 2a lower, 2a + 1 upper face of axis a).
+void bin_prims(std::span<const PrimRef> prims, const Aabb& cell, const AxisBins* axes,
+               const bool* active, unsigned faces, std::uint32_t* hist, std::size_t bins) {
   for (int a = 0; a < 3; ++a) {
-    if (!active[a]) continue;
-    std::uint32_t* h_lo = hist + 2 * a * bins;
+    const std::size_t axis = static_cast<std::size_t>(a);
+    std::uint32_t* h_lo = hist + 2 * axis * bins;
     std::uint32_t* h_hi = h_lo + bins;
+    std::uint32_t* on_face = hist + 6 * bins + 2 * axis;
     const AxisBins bin = axes[a];
-    for (const PrimRef& r : prims) {
-      ++h_lo[bin(r.bounds.lo[a])];
-      ++h_hi[bin(r.bounds.hi[a])];
+    const float face_lo = cell.lo[a], face_hi = cell.hi[a];
+    const bool count_lo = faces >> (2 * a) & 1, count_hi = faces >> (2 * a + 1) & 1;
+    if (count_lo || count_hi) {
+      std::uint32_t at_lo = 0, at_hi = 0;
+      for (const PrimRef& r : prims) {
+        const float lo = r.bounds.lo[a], hi = r.bounds.hi[a];
+        if (active[a]) ++h_lo[bin(lo)], ++h_hi[bin(hi)];
+        at_lo += lo == hi && lo == face_lo;
+        at_hi += lo == hi && lo == face_hi;
+      }
+      on_face[0] += count_lo ? at_lo : 0;
+      on_face[1] += count_hi ? at_hi : 0;
+    } else if (active[a]) {
+      for (const PrimRef& r : prims) {
+        ++h_lo[bin(r.bounds.lo[a])];
+        ++h_hi[bin(r.bounds.hi[a])];
+      }
     }
   }
 }
@@ -66,34 +83,40 @@ BinnedSplit find_binned_split(std::span<const PrimRef> prims, const Aabb& cell, 
                               const KdSplitCost& cost, int bins, bool parallel) {
   bins = std::max(bins, 1);
   const std::size_t stride = static_cast<std::size_t>(bins);
-  std::array<std::uint32_t, 6 * kStackBins> stack_hist;
+  const std::size_t slots = 6 * stride + 6;  // the bins, then the face counts
+  std::array<std::uint32_t, 6 * kStackBins + 6> stack_hist;
   std::vector<std::uint32_t> heap_hist;
   std::uint32_t* hist = stack_hist.data();
   if (bins > kStackBins) {
-    heap_hist.resize(6 * stride);
+    heap_hist.resize(slots);
     hist = heap_hist.data();
   }
-  std::fill(hist, hist + 6 * stride, 0u);
+  std::fill(hist, hist + slots, 0u);
 
   AxisBins axes[3];
   bool active[3];
+  unsigned faces = 0;  // faces the content reaches: only they can hold in-plane primitives
   for (int a = 0; a < 3; ++a) {
     const float lo = content.lo[a], hi = content.hi[a];
     active[a] = lo < hi && cell.lo[a] < cell.hi[a];
     axes[a] = {lo, active[a] ? static_cast<float>(bins) / (hi - lo) : 0.0f, bins};
+    if (cell.lo[a] < cell.hi[a]) {
+      faces |= (lo == cell.lo[a] ? 1u : 0u) << (2 * a);
+      faces |= (hi == cell.hi[a] ? 1u : 0u) << (2 * a + 1);
+    }
   }
   if (parallel && prims.size() > kChunk) {
     const std::size_t chunks = (prims.size() + kChunk - 1) / kChunk;
-    std::vector<std::uint32_t> partial(chunks * 6 * stride, 0u);
+    std::vector<std::uint32_t> partial(chunks * slots, 0u);
     tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
       const std::size_t begin = c * kChunk, end = std::min(prims.size(), begin + kChunk);
-      bin_prims(prims.subspan(begin, end - begin), axes, active, partial.data() + c * 6 * stride,
-                stride);
+      bin_prims(prims.subspan(begin, end - begin), cell, axes, active, faces,
+                partial.data() + c * slots, stride);
     });
     for (std::size_t c = 0; c < chunks; ++c)  // integer sums: the same in any order
-      for (std::size_t i = 0; i < 6 * stride; ++i) hist[i] += partial[c * 6 * stride + i];
+      for (std::size_t i = 0; i < slots; ++i) hist[i] += partial[c * slots + i];
   } else {
-    bin_prims(prims, axes, active, hist, stride);
+    bin_prims(prims, cell, axes, active, faces, hist, stride);
   }
 
   // Sweep of the planes at the bin boundaries k = 0..bins. Inside, the counts are the
@@ -115,13 +138,28 @@ BinnedSplit find_binned_split(std::span<const PrimRef> prims, const Aabb& cell, 
       best.planar_below = planar_below;
     }
   };
+  // The planar rule at the faces (kd_sah.hpp): a face's in-plane primitives into a flat cell.
+  const auto consider_face = [&](int axis, float position, std::size_t below, std::size_t above,
+                                 bool planar_below, const KdAxisCost& axis_cost) {
+    const double c = axis_cost(position, below, above);
+    ++best.evals;
+    if (c < best.cost) {
+      best.cost = c;
+      best.axis = axis;
+      best.position = position;
+      best.planar_below = planar_below;
+    }
+  };
   for (int a = 0; a < 3; ++a) {
     const float lo = content.lo[a], hi = content.hi[a];
     if (!(cell.lo[a] < cell.hi[a]) || !(lo <= hi)) continue;
     const KdAxisCost axis_cost(cost, cell, a);
+    const std::uint32_t* on_face = hist + 6 * stride + 2 * static_cast<std::size_t>(a);
+    const std::size_t at_lo = on_face[0], at_hi = on_face[1];
+    if (at_lo > 0) consider_face(a, cell.lo[a], at_lo, n - at_lo, true, axis_cost);
     consider(a, lo, 0, n, false, axis_cost);
     if (active[a]) {
-      const std::uint32_t* h_lo = hist + 2 * a * stride;
+      const std::uint32_t* h_lo = hist + 2 * static_cast<std::size_t>(a) * stride;
       const std::uint32_t* h_hi = h_lo + stride;
       const float width = (hi - lo) / static_cast<float>(bins);
       std::size_t below = 0, above = n;
@@ -133,6 +171,7 @@ BinnedSplit find_binned_split(std::span<const PrimRef> prims, const Aabb& cell, 
       }
     }
     consider(a, hi, n, 0, true, axis_cost);
+    if (at_hi > 0) consider_face(a, cell.hi[a], n - at_hi, at_hi, false, axis_cost);
   }
   if (best.axis < 0) return best;
 

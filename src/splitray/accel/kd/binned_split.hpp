@@ -1,9 +1,10 @@
 #pragma once
 // Binned SAH for kd nodes: min-max binning of the primitives' clipped bounds into `bins`
 // slabs per axis over the node's content (its primitives' bounds within the cell, so the
-// content's own bounds, the empty-space cuts, are candidates too), then one sweep over the
-// bin boundaries. The chosen plane's counts are then taken exactly and its SAH evaluated
-// again, so the leaf-or-split decision and the children's sizes are exact.
+// content's own bounds, the empty-space cuts, are candidates too, and the faces holding
+// in-plane primitives, kd_sah.hpp), then one sweep over the bin boundaries. The chosen
+// plane's counts are then taken exactly and its SAH evaluated again, so the leaf-or-split
+// decision and the children's sizes are exact.
 #include <cstddef>
 #include <cstdint>
 #include <span>

@@ -53,11 +53,10 @@ SplitCandidate count_and_cost(const AxisEvents& events, const KdAxisCost& cost, 
                               std::uint32_t& evals) {
   const std::size_t planes_below = count_less(events.planes, position);
   const std::size_t planes_at = count_less_equal(events.planes, position) - planes_below;
-  const std::size_t below = count_less(events.starts, position) + planes_below +
-                            events.below_before;
+  const std::size_t below =
+      count_less(events.starts, position) + planes_below + events.below_before;
   const std::size_t above = (events.ends.size() - count_less_equal(events.ends, position)) +
-                            (events.planes.size() - planes_below - planes_at) +
-                            events.above_after;
+                            (events.planes.size() - planes_below - planes_at) + events.above_after;
   return cost_split(cost, position, below, above, planes_at, evals);
 }
 
@@ -218,6 +217,10 @@ GoldenSearchResult exhaustive_search_axis(const AxisEvents& events, const Aabb& 
     if (p >= lo && p > cell_lo && p < cell_hi) {
       consider(p, below + planar, above, true);
       if (planar > 0) consider(p, below, above + planar, false);
+    } else if (planar > 0 && p >= lo && cell_lo < cell_hi) {
+      // The planar rule at a face (kd_sah.hpp): the primitives lying in it go into a flat cell.
+      if (p == cell_lo) consider(p, below + planar, above, true);
+      if (p == cell_hi) consider(p, below, above + planar, false);
     }
     below += (i - i0) + planar;
   }
@@ -254,6 +257,24 @@ GoldenSearchResult golden_search_axis(const AxisEvents& events, const Aabb& cell
 
   GoldenSearchResult result;
   Probe f(events, cell, axis, cost, result);
+  // The planar rule at the faces the bracket reaches (kd_sah.hpp), costed exactly.
+  {
+    const KdAxisCost axis_cost(cost, cell, axis);
+    const std::size_t n = events.prims() + events.below_before + events.above_after;
+    const std::size_t at_lo = count_less_equal(events.planes, cell.lo[axis]);
+    const std::size_t at_hi = events.planes.size() - count_less(events.planes, cell.hi[axis]);
+    SplitCandidate c;
+    if (lo == cell.lo[axis] && at_lo > 0 && events.below_before == 0) {
+      c = {cell.lo[axis], axis_cost(cell.lo[axis], at_lo, n - at_lo), at_lo, n - at_lo, true};
+      ++result.evals;
+      if (better(c, result.best)) result.best = c;
+    }
+    if (hi == cell.hi[axis] && at_hi > 0 && events.above_after == 0) {
+      c = {cell.hi[axis], axis_cost(cell.hi[axis], n - at_hi, at_hi), n - at_hi, at_hi, false};
+      ++result.evals;
+      if (better(c, result.best)) result.best = c;
+    }
+  }
   double a = lo, b = hi, x, fx;
   if (start) {
     x = std::clamp(static_cast<double>(*start), a + 0.5 * tol, b - 0.5 * tol);

@@ -104,7 +104,8 @@ struct GoldenSearchResult {
 SplitCandidate evaluate_split(const AxisEvents& events, const Aabb& cell, int axis,
                               const KdSplitCost& cost, float position, std::uint32_t& evals);
 
-// The best split position on `axis` within [lo, hi] ∩ open cell interval. Without `start`:
+// The best split position on `axis` within [lo, hi] ∩ open cell interval, or at a face the
+// bracket reaches that holds in-plane primitives (kd_sah.hpp). Without `start`:
 // coarse samples (plus the two empty-space cuts at the content's bounds) bracket the
 // minimum, Brent refines inside the bracket around the best sample. With `start` (e.g. a
 // position predicted from the previous frame of an animation, issue #4): Brent starts at
@@ -116,7 +117,8 @@ GoldenSearchResult golden_search_axis(const AxisEvents& events, const Aabb& cell
                                       const GoldenSearchOptions& options = {});
 
 // The exact minimum: one sweep costing every distinct event position in [lo, hi] inside the
-// cell (ties: lowest position). Used for axes with few events, small nodes and the tests.
+// cell, and the faces of the cell in [lo, hi] that hold in-plane primitives (kd_sah.hpp's
+// planar rule; ties: lowest position). Used for axes with few events and the tests.
 GoldenSearchResult exhaustive_search_axis(const AxisEvents& events, const Aabb& cell, int axis,
                                           const KdSplitCost& cost, float lo, float hi);
 

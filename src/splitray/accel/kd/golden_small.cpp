@@ -21,7 +21,8 @@ struct AxisLanes {
   alignas(64) float lo[kSmallSplitMaxPrims];
   alignas(64) float hi[kSmallSplitMaxPrims];
   std::size_t n = 0, padded = 0;
-  std::uint64_t planar = 0;  // bit i: primitive i lies in a plane of this axis (lo == hi)
+  std::uint64_t planar = 0;          // bit i: primitive i lies in a plane of this axis (lo == hi)
+  std::size_t at_lo = 0, at_hi = 0;  // primitives lying in the cell's lower / upper face
 };
 
 // The primitives' positions relative to a plane at p, as bit masks over the lanes.
@@ -78,14 +79,18 @@ PlaneMasks plane_masks(const AxisLanes& l, float p) {
 }
 #endif
 
-void load_axis(std::span<const PrimRef> prims, int axis, AxisLanes& l) {
+void load_axis(std::span<const PrimRef> prims, const Aabb& cell, int axis, AxisLanes& l) {
   l.n = prims.size();
   l.padded = (l.n + kLanes - 1) / kLanes * kLanes;
   l.planar = 0;
+  l.at_lo = l.at_hi = 0;
   for (std::size_t i = 0; i < l.n; ++i) {
     l.lo[i] = prims[i].bounds.lo[axis];
     l.hi[i] = prims[i].bounds.hi[axis];
-    if (l.lo[i] == l.hi[i]) l.planar |= std::uint64_t{1} << i;
+    const bool planar = l.lo[i] == l.hi[i];
+    if (planar) l.planar |= std::uint64_t{1} << i;
+    l.at_lo += planar && l.lo[i] == cell.lo[axis];
+    l.at_hi += planar && l.lo[i] == cell.hi[axis];
   }
   for (std::size_t i = l.n; i < l.padded; ++i) {
     l.lo[i] = std::numeric_limits<float>::infinity();
@@ -179,31 +184,47 @@ BinnedSplit find_small_split(std::span<const PrimRef> prims, const Aabb& cell,
   for (int a = 0; a < 3; ++a) {
     const float cell_lo = cell.lo[a], cell_hi = cell.hi[a];
     if (!(cell_lo < cell_hi)) continue;
-    load_axis(prims, a, lanes);
+    load_axis(prims, cell, a, lanes);
     const KdAxisCost axis_cost(cost, cell, a);
     collect_candidates(lanes, axis_cost, cell_lo, cell_hi, c);
     cost_candidates(axis_cost, c);
     double a_cost = kInf;
-    std::size_t a_k = 0;
+    float a_pos = 0;
+    std::size_t a_below = 0, a_above = 0;
     bool a_planar_below = true;
-    const auto consider = [&](double cost_k, std::size_t k, bool planar_below) {
-      if (cost_k < a_cost || (cost_k == a_cost && c.position[k] < c.position[a_k]))
-        a_cost = cost_k, a_k = k, a_planar_below = planar_below;
+    const auto consider = [&](double cost_k, float p, double below, double above,
+                              bool planar_below) {
+      if (cost_k < a_cost || (cost_k == a_cost && p < a_pos))
+        a_cost = cost_k, a_pos = p, a_below = static_cast<std::size_t>(below),
+        a_above = static_cast<std::size_t>(above), a_planar_below = planar_below;
     };
+    // The planar rule at the faces (kd_sah.hpp): in-plane primitives on a face into a flat
+    // cell of their own.
+    const std::size_t n = prims.size();
+    if (lanes.at_lo > 0) {
+      consider(axis_cost(cell_lo, lanes.at_lo, n - lanes.at_lo), cell_lo,
+               static_cast<double>(lanes.at_lo), static_cast<double>(n - lanes.at_lo), true);
+      ++best.evals;
+    }
     for (std::size_t k = 0; k < c.m; ++k) {
-      consider(c.cost_planar_below[k], k, true);
-      consider(c.cost_planar_above[k], k, false);
-      best.evals += 1 + (c.planar[k] > 0);
+      const double planar = c.planar[k];
+      consider(c.cost_planar_below[k], c.position[k], c.below[k] + planar, c.above[k], true);
+      consider(c.cost_planar_above[k], c.position[k], c.below[k], c.above[k] + planar, false);
+      best.evals += 1 + (planar > 0);
+    }
+    if (lanes.at_hi > 0) {
+      consider(axis_cost(cell_hi, n - lanes.at_hi, lanes.at_hi), cell_hi,
+               static_cast<double>(n - lanes.at_hi), static_cast<double>(lanes.at_hi), false);
+      ++best.evals;
     }
     if (!(a_cost < kInf)) continue;
     if (axis_costs) axis_costs[a] = a_cost;
     if (a_cost < best.cost) {
-      const double planar = c.planar[a_k];
       best.cost = a_cost;
       best.axis = a;
-      best.position = c.position[a_k];
-      best.n_below = static_cast<std::size_t>(c.below[a_k] + (a_planar_below ? planar : 0));
-      best.n_above = static_cast<std::size_t>(c.above[a_k] + (a_planar_below ? 0 : planar));
+      best.position = a_pos;
+      best.n_below = a_below;
+      best.n_above = a_above;
       best.planar_below = a_planar_below;
     }
   }

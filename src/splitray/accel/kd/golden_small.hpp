@@ -14,8 +14,9 @@ namespace splitray {
 // Most primitives find_small_split takes (its counts are bit masks of one 64-bit word).
 inline constexpr std::size_t kSmallSplitMaxPrims = 64;
 
-// The exact SAH minimum over the bounds of at most kSmallSplitMaxPrims primitives (ties:
-// lower axis, position), in-plane primitives on their cheaper side: the same positions,
+// The exact SAH minimum over the bounds of at most kSmallSplitMaxPrims primitives, and the
+// faces holding in-plane ones (kd_sah.hpp; ties: lower axis, position), in-plane primitives
+// on their cheaper side: the same positions,
 // counts, costs and ties as exhaustive_search_axis. `axis_costs`, when given, receives each
 // axis' best cost (infinity where none).
 BinnedSplit find_small_split(std::span<const PrimRef> prims, const Aabb& cell,

@@ -23,14 +23,16 @@ struct KdBuildNode {
 struct KdBuildResult {
   std::unique_ptr<KdBuildNode> root;  // or, from builders that lay out nodes themselves:
   std::optional<KdTree> tree;         // the finished tree (then root is null)
-  std::uint64_t cost_evals = 0;  // SAH cost evaluations
+  std::uint64_t cost_evals = 0;       // SAH cost evaluations
 };
 
 // Each builder: triangles, their common bounding box (the root cell), settings.
 using KdBuilder = KdBuildResult (*)(std::span<const Triangle>, const Aabb&, const BuildConfig&);
 
-KdBuildResult build_kd_sah(std::span<const Triangle>, const Aabb&, const BuildConfig&);     // event sweep
-KdBuildResult build_kd_golden(std::span<const Triangle>, const Aabb&, const BuildConfig&);  // paper 000
+KdBuildResult build_kd_sah(std::span<const Triangle>, const Aabb&,
+                           const BuildConfig&);  // event sweep
+KdBuildResult build_kd_golden(std::span<const Triangle>, const Aabb&,
+                              const BuildConfig&);  // paper 000
 KdBuildResult build_kd_binned(std::span<const Triangle>, const Aabb&, const BuildConfig&);  // bins
 
 // Lays out a builder's tree as compact nodes, depth first (below child right after its parent),

@@ -3,6 +3,12 @@
 // (Wald & Havran 2006, §3): C(p) = lambda(p) * (K_T + K_I * (P_L N_L + P_R N_R)),
 // lambda = 1 - empty_bonus when one side is empty; a node becomes a leaf when no split
 // costs less than K_I * N, when N <= max_leaf_prims, or at the maximum depth.
+//
+// Candidate planes lie strictly inside the cell, with one exception every builder makes, the
+// planar rule at the faces: a face holding primitives that lie in it is a candidate too, and
+// cuts them off into a flat cell of their own (the rest keep the whole cell), as for a floor
+// or a wall at the side of a room. Both children are smaller than the parent (one is flat,
+// the other has fewer primitives), so such splits always progress.
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
