@@ -126,9 +126,10 @@ BinnedSplit find_binned_split(std::span<const PrimRef> prims, const Aabb& cell, 
   BinnedSplit best;
   best.cost = std::numeric_limits<double>::infinity();
   const std::size_t n = prims.size();
-  const auto consider = [&](int axis, float position, std::size_t below, std::size_t above,
-                            bool planar_below, const KdAxisCost& axis_cost) {
-    if (!(position > cell.lo[axis] && position < cell.hi[axis])) return;
+  // Costs a plane; the faces are candidates only by the planar rule (kd_sah.hpp), every other
+  // plane must lie strictly inside the cell.
+  const auto consider_plane = [&](int axis, float position, std::size_t below, std::size_t above,
+                                  bool planar_below, const KdAxisCost& axis_cost) {
     const double c = axis_cost(position, below, above);
     ++best.evals;
     if (c < best.cost) {
@@ -138,17 +139,10 @@ BinnedSplit find_binned_split(std::span<const PrimRef> prims, const Aabb& cell, 
       best.planar_below = planar_below;
     }
   };
-  // The planar rule at the faces (kd_sah.hpp): a face's in-plane primitives into a flat cell.
-  const auto consider_face = [&](int axis, float position, std::size_t below, std::size_t above,
-                                 bool planar_below, const KdAxisCost& axis_cost) {
-    const double c = axis_cost(position, below, above);
-    ++best.evals;
-    if (c < best.cost) {
-      best.cost = c;
-      best.axis = axis;
-      best.position = position;
-      best.planar_below = planar_below;
-    }
+  const auto consider = [&](int axis, float position, std::size_t below, std::size_t above,
+                            bool planar_below, const KdAxisCost& axis_cost) {
+    if (position > cell.lo[axis] && position < cell.hi[axis])
+      consider_plane(axis, position, below, above, planar_below, axis_cost);
   };
   for (int a = 0; a < 3; ++a) {
     const float lo = content.lo[a], hi = content.hi[a];
@@ -156,7 +150,7 @@ BinnedSplit find_binned_split(std::span<const PrimRef> prims, const Aabb& cell, 
     const KdAxisCost axis_cost(cost, cell, a);
     const std::uint32_t* on_face = hist + 6 * stride + 2 * static_cast<std::size_t>(a);
     const std::size_t at_lo = on_face[0], at_hi = on_face[1];
-    if (at_lo > 0) consider_face(a, cell.lo[a], at_lo, n - at_lo, true, axis_cost);
+    if (at_lo > 0) consider_plane(a, cell.lo[a], at_lo, n - at_lo, true, axis_cost);
     consider(a, lo, 0, n, false, axis_cost);
     if (active[a]) {
       const std::uint32_t* h_lo = hist + 2 * static_cast<std::size_t>(a) * stride;
@@ -171,7 +165,7 @@ BinnedSplit find_binned_split(std::span<const PrimRef> prims, const Aabb& cell, 
       }
     }
     consider(a, hi, n, 0, true, axis_cost);
-    if (at_hi > 0) consider_face(a, cell.hi[a], n - at_hi, at_hi, false, axis_cost);
+    if (at_hi > 0) consider_plane(a, cell.hi[a], n - at_hi, at_hi, false, axis_cost);
   }
   if (best.axis < 0) return best;
 
