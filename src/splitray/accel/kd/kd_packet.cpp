@@ -13,7 +13,6 @@
 
 #include "splitray/accel/kd/kd_accel.hpp"
 #include "splitray/accel/kd/kd_ray_setup.hpp"
-#include "splitray/accel/kd/kd_sah.hpp"
 
 #if defined(__AVX2__)
 #include <immintrin.h>
