@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <limits>
 
 #include "hierarchy_oracle.hpp"
 #include "splitray/accel/kd/kd_accel.hpp"
@@ -351,6 +352,52 @@ TEST(NeuralAccel, SmallCellsAreLeftToTheExpansionBuilder) {
   EXPECT_GT(shallow, 0);
   EXPECT_LT(shallow, 6);
   EXPECT_EQ(*build(horse, "neural", 0).top_depth, 6);
+}
+
+// The network's baseline (paper 003 Fig. 3): the root split of the samples' greedy top is the
+// cheapest of every split at a sample coordinate on every axis, small cells stay leaves, and
+// the tree built on it (--greedy-top) answers like brute.
+TEST(NeuralTop, GreedyTopTakesTheSamplesCheapestSplitAndMatchesBrute) {
+  const std::vector<Triangle> tris = load_triangles(vendored_file("horse/horse.obj.gz"));
+  const std::vector<Vec3> samples = SurfaceSampler(tris).sample(2048);
+  Aabb root;
+  for (const Triangle& t : tris) root.extend(t.bounds());
+  NeuralTopOptions options;
+  options.population = static_cast<double>(tris.size());
+  options.max_depth = 6;
+  const NeuralTop top = greedy_top(samples, root, options);
+  expect_valid_top(top, 6);
+  ASSERT_FALSE(top.nodes[0].leaf());
+  const double scale = neural_sample_scale(samples.size(), options);
+  const double parent = neural_cell_measure(root, options.cost, options.radius);
+  double best = std::numeric_limits<double>::infinity();
+  for (int axis = 0; axis < 3; ++axis)
+    for (const Vec3& p : samples) {
+      const float split = p[axis];
+      if (!(split > root.lo[axis] && split < root.hi[axis])) continue;
+      std::size_t below = 0;
+      for (const Vec3& q : samples) below += q[axis] < split ? 1 : 0;
+      best = std::min(best, neural_split_cost(root, axis, split, below, samples.size(), parent,
+                                              scale, options));
+    }
+  std::size_t below = 0;
+  for (const Vec3& q : samples) below += q[top.nodes[0].axis] < top.nodes[0].split ? 1 : 0;
+  EXPECT_EQ(neural_split_cost(root, top.nodes[0].axis, top.nodes[0].split, below, samples.size(),
+                              parent, scale, options),
+            best);
+  options.min_split_population = 1e9;  // every cell "too small": the root stays a leaf
+  EXPECT_EQ(greedy_top(samples, root, options).depth, 0);
+
+  BuildConfig config;
+  config.builder = "neural";
+  config.model = model_file(NeuralCost::sah, 6);
+  config.greedy_top = true;
+  config.top_min_prims = 0;
+  const auto tree = make_accel("kd", tris, config);
+  EXPECT_EQ(tree->stats().builder, "greedy-top+sah");
+  EXPECT_GT(*tree->stats().top_depth, 0);
+  const Reference ref = reference(vendored_file("horse/horse.obj.gz"));
+  expect_same_answers(ref.brute, answers_of(*tree, ref.rays), ref.rays, "horse greedy-top+sah");
 }
 
 TEST(NeuralAccel, KdAndBvhMatchBruteOnSharedMeshes) {

@@ -151,6 +151,9 @@ void add_knn_command(CLI::App& app) {
                   "samples) are left to the expansion builder (default 4096; 0: split down to the "
                   "model's depth)")
       ->check(CLI::Range(0, 1 << 30));
+  sub->add_flag("--greedy-top", command->index.greedy_top,
+                "--builder neural: the top from an exact greedy VVH sweep over the same samples "
+                "instead of the network (paper 003 Fig. 3's baseline)");
   sub->add_option("--leaf-size", command->index.leaf_size, "Points per leaf (all trees)")
       ->check(CLI::Range(1, 1 << 20));
   sub->add_option("--vvh-radius", command->index.radius,

@@ -138,6 +138,11 @@ void add_accel_options(CLI::App& command, AccelOptions& options) {
                   "the model's depth)")
       ->check(CLI::Range(0, 1 << 30))
       ->group(group);
+  command
+      .add_flag("--greedy-top", options.build.greedy_top,
+                "--builder neural: the top from an exact greedy SAH sweep over the same samples "
+                "instead of the network (paper 003 Fig. 3's baseline)")
+      ->group(group);
 }
 
 CameraSpec parse_camera(const std::string& text) {

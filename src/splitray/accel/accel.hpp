@@ -34,6 +34,9 @@ struct BuildConfig {
   // Inferred-top nodes with fewer primitives than this (estimated from the samples) are left
   // to the expansion builder; 0 = every node down to the model's depth.
   int top_min_prims = kNeuralTopMinPrims;
+  // The top from an exact greedy sweep over the same samples instead of the network (the
+  // baseline of paper 003 Fig. 3: what the samples alone give).
+  bool greedy_top = false;
 };
 
 struct AccelStats {

@@ -18,7 +18,8 @@ class TreeIndex final : public NeighborIndex {
                        .radius = config.radius,
                        .model = config.model,
                        .expand = config.expand,
-                       .top_min_points = config.top_min_points}) {
+                       .top_min_points = config.top_min_points,
+                       .greedy_top = config.greedy_top}) {
     name_ = config.builder;
     build_ms_ = tree_.build_ms();
     points_ = points.size();

@@ -24,6 +24,7 @@ struct NeighborIndexConfig {
   std::string model{};
   std::string expand{};
   int top_min_points = kNeuralTopMinPrims;  // builder "neural": see PointTreeConfig
+  bool greedy_top = false;                  // builder "neural": see PointTreeConfig
 };
 
 class NeighborIndex {

@@ -37,6 +37,7 @@ struct PointTreeConfig {
   std::string expand{};
   // Inferred-top nodes with fewer points are left to the expander (0: the model's depth).
   int top_min_points = kNeuralTopMinPrims;
+  bool greedy_top = false;  // builder "neural": the samples' greedy top instead of the network
 };
 
 // Interior: the points below have coordinate[axis] <= below_max < above_min <= the points

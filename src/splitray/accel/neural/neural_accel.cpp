@@ -167,7 +167,14 @@ TriangleTop infer_triangle_top(const NeuralModel& model, std::span<const Triangl
   options.intersection_cost = config.intersection_cost;
   options.population = static_cast<double>(triangles.size());
   options.min_split_population = config.top_min_prims;
-  out.top = infer_neural_top(model, samples, bounds, options);
+  if (config.greedy_top) {
+    options.max_depth = model.depth();
+    const Timer greedy;
+    out.top = greedy_top(samples, bounds, options);
+    out.top.inference_ms = out.top.inference_cpu_ms = greedy.ms();
+  } else {
+    out.top = infer_neural_top(model, samples, bounds, options);
+  }
   return out;
 }
 
@@ -233,7 +240,7 @@ std::unique_ptr<Accel> make_neural_kd(std::span<const Triangle> triangles,
   named.builder = "neural";
   auto inner = std::make_unique<KdAccel>(std::move(tree), triangles, named, evals, timer);
   AccelStats stats = inner->stats();
-  stats.builder = "neural+" + expand;
+  stats.builder = (config.greedy_top ? "greedy-top+" : "neural+") + expand;
   stats.inference_ms = top.top.inference_ms;
   stats.top_depth = top.top.depth;
   return std::make_unique<NeuralAccel>(std::move(inner), stats);
@@ -261,7 +268,7 @@ std::unique_ptr<Accel> make_neural_bvh(std::span<const Triangle> triangles,
   AccelStats stats = inner->stats();
   stats.build_ms = timer.ms();
   stats.accel = "bvh";
-  stats.builder = "neural+" + expand;
+  stats.builder = (config.greedy_top ? "greedy-top+" : "neural+") + expand;
   stats.inference_ms = top.top.inference_ms;
   stats.top_depth = top.top.depth;
   return std::make_unique<NeuralAccel>(std::move(inner), stats);

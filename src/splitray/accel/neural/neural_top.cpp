@@ -170,4 +170,59 @@ NeuralTop infer_neural_top(const NeuralModel& model, std::span<const Vec3> sampl
   return top;
 }
 
+NeuralTop greedy_top(std::span<const Vec3> samples, const Aabb& root,
+                     const NeuralTopOptions& options) {
+  if (options.max_depth < 0) throw Error("greedy_top", "max_depth must not be negative");
+  const double scale = neural_sample_scale(samples.size(), options);
+  const double ci = options.intersection_cost;
+  NeuralTop top;
+  top.nodes.push_back({});
+  top.nodes[0].box = root;
+  std::vector<std::vector<std::uint32_t>> active(1);
+  for (std::size_t i = 0; i < samples.size(); ++i)
+    if (root.contains(samples[i])) active[0].push_back(static_cast<std::uint32_t>(i));
+  top.nodes[0].samples = static_cast<std::uint32_t>(active[0].size());
+
+  std::vector<std::size_t> frontier = {0}, next;
+  std::vector<float> coords;
+  for (int level = 0; level < options.max_depth && !frontier.empty(); ++level) {
+    next.clear();
+    for (const std::size_t n : frontier) {
+      const Aabb box = top.nodes[n].box;
+      const std::vector<std::uint32_t> pts = std::move(active[n]);
+      const double parent = neural_cell_measure(box, options.cost, options.radius);
+      if (pts.size() < 2 || !(parent > 0) ||
+          static_cast<double>(pts.size()) * scale < options.min_split_population)
+        continue;
+      double best = ci * static_cast<double>(pts.size()) * scale;
+      int best_axis = -1;
+      float best_split = 0;
+      for (int axis = 0; axis < 3; ++axis) {
+        coords.clear();
+        for (const std::uint32_t p : pts) coords.push_back(samples[p][axis]);
+        std::sort(coords.begin(), coords.end());
+        // Split at each distinct sample coordinate strictly inside the cell: `below` points
+        // lie below it (coordinate < split, as in inference).
+        for (std::size_t i = 1; i < coords.size(); ++i) {
+          if (coords[i] == coords[i - 1]) continue;
+          const float split = coords[i];
+          if (!(split > box.lo[axis] && split < box.hi[axis])) continue;
+          const double cost =
+              neural_split_cost(box, axis, split, i, coords.size(), parent, scale, options);
+          if (cost < best) {
+            best = cost;
+            best_axis = axis;
+            best_split = split;
+          }
+        }
+      }
+      if (best_axis < 0) continue;
+      split_neural_top_node(top, n, best_axis, best_split, pts, samples, active, next);
+      top.depth = level + 1;
+    }
+    std::swap(frontier, next);
+  }
+  return top;
+}
+
 }  // namespace splitray

@@ -55,8 +55,15 @@ struct NeuralTop {
 NeuralTop infer_neural_top(const NeuralModel& model, std::span<const Vec3> samples,
                            const Aabb& root, const NeuralTopOptions& options);
 
-// The pieces the inferred top shares with the greedy top that training compares against
-// (train/greedy_top.*), so that both are costed and built alike:
+// The baseline of the network (paper 003 Fig. 3's ablation, and what training compares
+// against): a greedy SAH/VVH top of `options.max_depth` levels on the same samples, each split
+// chosen by an exact sweep over the samples of the local cost of Eq. 4 that
+// infer_neural_top uses to pick an axis; the same leaf rule (options.min_split_population).
+NeuralTop greedy_top(std::span<const Vec3> samples, const Aabb& root,
+                     const NeuralTopOptions& options);
+
+// The pieces the inferred top shares with the greedy top, so that both are costed and built
+// alike:
 // the weight of a cell in Eq. 4: surface area (SAH, Eq. 5) or the volume of the cell grown by
 // the search radius (VVH, Eq. 6); only ratios are used.
 double neural_cell_measure(const Aabb& box, NeuralCost cost, float radius);
