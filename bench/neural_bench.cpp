@@ -82,7 +82,7 @@ std::vector<std::string> mesh_keys(const BenchMesh& mesh, const std::string& sha
   return keys;
 }
 
-struct ModelInfo {
+struct ModelInfo {  // NOLINT(bugprone-exception-escape): nlohmann's Json members
   std::string path;
   std::optional<NeuralModel> model;
   Json json;
@@ -295,7 +295,8 @@ std::vector<Triangle> resized(std::span<const Triangle> mesh, std::size_t count)
   for (const Triangle& t : mesh) box.extend(t.bounds());
   const float step = 1.1f * box.extent().x;
   for (std::size_t copy = 0; out.size() < count; ++copy) {
-    const Vec3 shift{step * static_cast<float>(copy % 10), step * static_cast<float>(copy / 10), 0};
+    const std::size_t column = copy % 10, row = copy / 10;  // copies in rows of ten
+    const Vec3 shift{step * static_cast<float>(column), step * static_cast<float>(row), 0};
     for (std::size_t i = 0; i < mesh.size() && out.size() < count; ++i)
       out.push_back({mesh[i].v0 + shift, mesh[i].v1 + shift, mesh[i].v2 + shift});
   }
@@ -450,7 +451,7 @@ Json run_neural_bench_report(const NeuralBenchOptions& options) {
         why = "a training mesh of the issue";
       for (const std::string& key : mesh_keys(m, shared))
         if (why.empty() && !training.empty() && training.find(key) != std::string::npos)
-          why = "named in the training section of " + readme_path + " ('" + key + "')";
+          why = fmt::format("named in the training section of {} ('{}')", readme_path, key);
       if (why.empty()) {
         meshes.push_back(m);
       } else {
@@ -720,12 +721,19 @@ std::string neural_markdown_report(const Json& report) {
   const auto baseline = [&](const char* what, const std::vector<double>& v,
                             const std::vector<double>& neural) {
     if (v.empty()) return;
-    std::size_t better = 0;
-    for (std::size_t i = 0; i < v.size() && i < neural.size(); ++i) better += neural[i] < v[i];
+    std::size_t better = 0, equal = 0;
+    for (std::size_t i = 0; i < v.size() && i < neural.size(); ++i) {
+      if (neural[i] < v[i])
+        ++better;
+      else if (neural[i] == v[i])
+        ++equal;
+    }
     md += fmt::format(
         "- {} with the samples' greedy top instead of the network: geometric mean {:.3f}, "
-        "worst {:.3f}; the network's top is cheaper on {} of {}\n",
-        what, geomean(v), *std::max_element(v.begin(), v.end()), better, v.size());
+        "worst {:.3f}; the network's top is cheaper on {}, the same on {} (no top), dearer on "
+        "{} of {}\n",
+        what, geomean(v), *std::max_element(v.begin(), v.end()), better, equal,
+        v.size() - better - equal, v.size());
   };
   baseline("kd SAH cost ratio", greedy_kd, cost_kd);
   baseline("BVH SAH cost ratio", greedy_bvh, cost_bvh);
