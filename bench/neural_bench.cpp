@@ -525,9 +525,8 @@ Json run_neural_bench_report(const NeuralBenchOptions& options) {
             sample_surface(mesh, query_count, options.seed, kQueryStream);
         Json row = compare_points(options.point_expand, vvh.path, points, queries, options.ks, runs,
                                   identical);
-        fmt::print(stderr, "  points {}: cost ratio {:.3f}, knn {}\n",
-                   options.point_expand, row["cost_ratio"].get<double>(),
-                   row["knn"].dump());
+        fmt::print(stderr, "  points {}: cost ratio {:.3f}, knn {}\n", options.point_expand,
+                   row["cost_ratio"].get<double>(), row["knn"].dump());
         rows.push_back(std::move(row));
       } catch (const Error& e) {
         rows.push_back(Json{{"structure", "points"}, {"error", e.what()}});
@@ -629,11 +628,11 @@ std::string neural_markdown_report(const Json& report) {
             mesh["name"].get<std::string>(), mesh["triangles"].get<std::size_t>(), accel,
             row["expand"].get<std::string>(), num(row["base"]["sah_cost"], 1),
             num(row["neural"]["sah_cost"], 1), num(row["cost_ratio"], 3),
-            num(row.value("greedy_top_cost_ratio", Json()), 3),
-            num(row["base"]["build_ms"], 1), num(row["neural"]["build_ms"], 1),
-            num(row["neural"]["inference_ms"], 2), num(p["base_mrays_per_s"], 2),
-            num(p["neural_mrays_per_s"], 2), num(p["ratio"], 3), num(d["base_mrays_per_s"], 2),
-            num(d["neural_mrays_per_s"], 2), num(d["ratio"], 3), same ? "yes" : "**NO**");
+            num(row.value("greedy_top_cost_ratio", Json()), 3), num(row["base"]["build_ms"], 1),
+            num(row["neural"]["build_ms"], 1), num(row["neural"]["inference_ms"], 2),
+            num(p["base_mrays_per_s"], 2), num(p["neural_mrays_per_s"], 2), num(p["ratio"], 3),
+            num(d["base_mrays_per_s"], 2), num(d["neural_mrays_per_s"], 2), num(d["ratio"], 3),
+            same ? "yes" : "**NO**");
         (accel == "kd" ? cost_kd : cost_bvh).push_back(row["cost_ratio"].get<double>());
         if (row.contains("greedy_top_cost_ratio"))
           (accel == "kd" ? greedy_kd : greedy_bvh)
@@ -649,10 +648,10 @@ std::string neural_markdown_report(const Json& report) {
               mesh["name"].get<std::string>(), settings["points"].get<std::size_t>(),
               q["k"].get<int>(), num(row["base"]["vvh_cost"], 3), num(row["neural"]["vvh_cost"], 3),
               num(row["cost_ratio"], 3), num(row.value("greedy_top_cost_ratio", Json()), 3),
-              num(row["base"]["build_ms"], 1),
-              num(row["neural"]["build_ms"], 1), num(row["neural"]["inference_ms"], 2),
-              num(q["base_queries_per_s"], 0), num(q["neural_queries_per_s"], 0),
-              num(q["ratio"], 3), q["neighbors_identical"].get<bool>() ? "yes" : "**NO**");
+              num(row["base"]["build_ms"], 1), num(row["neural"]["build_ms"], 1),
+              num(row["neural"]["inference_ms"], 2), num(q["base_queries_per_s"], 0),
+              num(q["neural_queries_per_s"], 0), num(q["ratio"], 3),
+              q["neighbors_identical"].get<bool>() ? "yes" : "**NO**");
           knn.push_back(q["ratio"].get<double>());
         }
         cost_pts.push_back(row["cost_ratio"].get<double>());
