@@ -17,6 +17,17 @@ double thread_cpu_ms() {
   return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) * 1e-6;
 }
 
+// The cheapest of a node's candidate splits, starting from the leaf's cost (Eq. 4, q): what
+// greedy inference and the greedy top both keep.
+struct CheapestSplit {
+  double cost;
+  int axis = -1;
+  float split = 0;
+  void offer(double c, int a, float s) {
+    if (c < cost) cost = c, axis = a, split = s;
+  }
+};
+
 }  // namespace
 
 double neural_cell_measure(const Aabb& box, NeuralCost cost, float radius) {
@@ -139,9 +150,7 @@ NeuralTop infer_neural_top(const NeuralModel& model, std::span<const Vec3> sampl
       const std::vector<std::uint32_t> pts = std::move(active[n]);
       active[n].clear();
       const double parent = neural_cell_measure(box, options.cost, options.radius);
-      double best = ci * static_cast<double>(pts.size()) * scale;  // the leaf (Eq. 4, q)
-      int best_axis = -1;
-      float best_split = 0;
+      CheapestSplit best{ci * static_cast<double>(pts.size()) * scale};
       for (int axis = 0; axis < 3; ++axis) {
         const float lo = tight[c].lo[axis], extent = tight[c].hi[axis] - lo;
         if (!(extent > 0)) continue;
@@ -151,16 +160,11 @@ NeuralTop infer_neural_top(const NeuralModel& model, std::span<const Vec3> sampl
         if (!(split > box.lo[axis] && split < box.hi[axis])) continue;
         std::size_t below = 0;
         for (const std::uint32_t p : pts) below += samples[p][axis] < split ? 1 : 0;
-        const double cost =
-            neural_split_cost(box, axis, split, below, pts.size(), parent, scale, options);
-        if (cost < best) {
-          best = cost;
-          best_axis = axis;
-          best_split = split;
-        }
+        best.offer(neural_split_cost(box, axis, split, below, pts.size(), parent, scale, options),
+                   axis, split);
       }
-      if (best_axis < 0) continue;
-      split_neural_top_node(top, n, best_axis, best_split, pts, samples, active, next);
+      if (best.axis < 0) continue;
+      split_neural_top_node(top, n, best.axis, best.split, pts, samples, active, next);
       top.depth = level + 1;
     }
     std::swap(frontier, next);
@@ -194,9 +198,7 @@ NeuralTop greedy_top(std::span<const Vec3> samples, const Aabb& root,
       if (pts.size() < 2 || !(parent > 0) ||
           static_cast<double>(pts.size()) * scale < options.min_split_population)
         continue;
-      double best = ci * static_cast<double>(pts.size()) * scale;
-      int best_axis = -1;
-      float best_split = 0;
+      CheapestSplit best{ci * static_cast<double>(pts.size()) * scale};
       for (int axis = 0; axis < 3; ++axis) {
         coords.clear();
         for (const std::uint32_t p : pts) coords.push_back(samples[p][axis]);
@@ -207,17 +209,12 @@ NeuralTop greedy_top(std::span<const Vec3> samples, const Aabb& root,
           if (coords[i] == coords[i - 1]) continue;
           const float split = coords[i];
           if (!(split > box.lo[axis] && split < box.hi[axis])) continue;
-          const double cost =
-              neural_split_cost(box, axis, split, i, coords.size(), parent, scale, options);
-          if (cost < best) {
-            best = cost;
-            best_axis = axis;
-            best_split = split;
-          }
+          best.offer(neural_split_cost(box, axis, split, i, coords.size(), parent, scale, options),
+                     axis, split);
         }
       }
-      if (best_axis < 0) continue;
-      split_neural_top_node(top, n, best_axis, best_split, pts, samples, active, next);
+      if (best.axis < 0) continue;
+      split_neural_top_node(top, n, best.axis, best.split, pts, samples, active, next);
       top.depth = level + 1;
     }
     std::swap(frontier, next);
