@@ -116,13 +116,7 @@ NeuralTop infer_point_top(const NeuralModel& model, std::span<const Vec3> points
   options.radius = radius;
   options.population = static_cast<double>(points.size());
   options.min_split_population = config.top_min_points;
-  if (config.greedy_top) {
-    options.max_depth = model.depth();
-    const Timer greedy;
-    NeuralTop top = greedy_top(samples, bounds, options);
-    top.inference_ms = top.inference_cpu_ms = greedy.ms();
-    return top;
-  }
+  options.greedy = config.greedy_top;
   return infer_neural_top(model, samples, bounds, options);
 }
 

@@ -167,14 +167,8 @@ TriangleTop infer_triangle_top(const NeuralModel& model, std::span<const Triangl
   options.intersection_cost = config.intersection_cost;
   options.population = static_cast<double>(triangles.size());
   options.min_split_population = config.top_min_prims;
-  if (config.greedy_top) {
-    options.max_depth = model.depth();
-    const Timer greedy;
-    out.top = greedy_top(samples, bounds, options);
-    out.top.inference_ms = out.top.inference_cpu_ms = greedy.ms();
-  } else {
-    out.top = infer_neural_top(model, samples, bounds, options);
-  }
+  options.greedy = config.greedy_top;
+  out.top = infer_neural_top(model, samples, bounds, options);
   return out;
 }
 

@@ -100,6 +100,14 @@ NeuralTop infer_neural_top(const NeuralModel& model, std::span<const Vec3> sampl
   const double cpu_start = thread_cpu_ms();
   const int depth =
       options.max_depth > 0 ? std::min(options.max_depth, model.depth()) : model.depth();
+  if (options.greedy) {
+    NeuralTopOptions sweep = options;
+    sweep.max_depth = depth;
+    NeuralTop top = greedy_top(samples, root, sweep);
+    top.inference_ms = timer.ms();
+    top.inference_cpu_ms = thread_cpu_ms() - cpu_start;
+    return top;
+  }
   const double scale = neural_sample_scale(samples.size(), options);
   const double ci = options.intersection_cost;
 

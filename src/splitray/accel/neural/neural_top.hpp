@@ -40,6 +40,8 @@ struct NeuralTopOptions {
   // Nodes holding fewer primitives than this (estimated: samples × population / M) are left
   // to the expansion builder, whose exact decisions beat sampled ones on small cells.
   double min_split_population = 0;
+  // The top of greedy_top over the same samples (the model's depth) instead of the network's.
+  bool greedy = false;
 };
 
 struct NeuralTop {
