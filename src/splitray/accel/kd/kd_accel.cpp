@@ -1,5 +1,7 @@
 #include "splitray/accel/kd/kd_accel.hpp"
 
+#include <tbb/parallel_invoke.h>
+
 #include <algorithm>
 
 #include "splitray/accel/kd/kd_sah.hpp"
@@ -22,22 +24,18 @@ constexpr NamedBuilder kBuilders[] = {
 };
 
 // The leaves' triangle rows (KdLeafTriangles) sit at 9 x each leaf's first reference, so the
-// leaves' reference ranges must tile prim_ids. When a tree's leaves share ranges or leave gaps,
-// the references are copied leaf after leaf in node order (the cells stay the same).
+// leaves' reference ranges must tile prim_ids. Every builder emits its leaves' references in
+// node order, so that is checked in one pass; a tree whose leaves share ranges or leave gaps
+// gets its references copied leaf after leaf in node order (the cells stay the same).
 void tile_leaf_ranges(KdTree& tree) {
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> ranges;  // (first, count)
+  std::uint64_t next = 0;
+  bool tiled = true;
   for (const KdNode& node : tree.nodes) {
     if (!node.is_leaf() || node.count() == 0) continue;
     if (std::uint64_t{node.prim_offset} + node.count() > tree.prim_ids.size())
       throw Error("--accel kd", "a leaf refers past the end of the reference list");
-    ranges.emplace_back(node.prim_offset, node.count());
-  }
-  std::sort(ranges.begin(), ranges.end());
-  std::uint64_t next = 0;
-  bool tiled = true;
-  for (const auto& [first, count] : ranges) {
-    tiled = tiled && first == next;
-    next = std::uint64_t{first} + count;
+    tiled = tiled && node.prim_offset == next;
+    next = std::uint64_t{node.prim_offset} + node.count();
   }
   if (tiled && next == tree.prim_ids.size()) return;
   std::vector<std::uint32_t> ids;
@@ -97,27 +95,26 @@ KdAccel::KdAccel(KdTree tree, std::span<const Triangle> triangles, const BuildCo
     : tree_(std::move(tree)) {
   if (tree_.nodes.empty()) throw Error("--accel kd", "the tree has no nodes");
   tile_leaf_ranges(tree_);
-  stats_ = kd_tree_stats(tree_, config);
+  for (const std::uint32_t id : tree_.prim_ids)
+    if (id >= triangles.size()) throw Error("--accel kd", "a leaf refers to a missing triangle");
+  // The statistics, the wide layout and the leaves' rows only read the tree: built at once.
+  const auto fill_rows = [&] {
+    // The leaves tile prim_ids, so each writes its own rows: in parallel, in any order.
+    std::vector<KdWideLeaf> leaves;
+    for (const KdNode& node : tree_.nodes)
+      if (node.is_leaf() && node.count() > 0) leaves.push_back({node.prim_offset, node.count()});
+    leaf_triangles_.resize(tree_.prim_ids.size());
+    parallel_chunks(leaves.size(), 4096, [&](std::size_t begin, std::size_t end) {
+      for (std::size_t i = begin; i < end; ++i)
+        leaf_triangles_.set_leaf(leaves[i].first, leaves[i].count, tree_.prim_ids.data(),
+                                 triangles.data());
+    });
+  };
+  tbb::parallel_invoke([&] { stats_ = kd_tree_stats(tree_, config); },
+                       [&] { wide_ = KdWideTree::from(tree_); }, fill_rows);
   if (stats_.max_depth > kKdDepthLimit)  // the traversal stack holds one entry per level
     throw Error("--accel kd",
                 "the tree is deeper than " + std::to_string(kKdDepthLimit) + " levels");
-  for (const std::uint32_t id : tree_.prim_ids)
-    if (id >= triangles.size()) throw Error("--accel kd", "a leaf refers to a missing triangle");
-  // Leaves in the order of their references, as KdLeafTriangles lays them out.
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> leaves;  // (first, count)
-  for (const KdNode& node : tree_.nodes)
-    if (node.is_leaf() && node.count() > 0) leaves.emplace_back(node.prim_offset, node.count());
-  std::sort(leaves.begin(), leaves.end());
-  std::vector<Triangle> leaf;
-  leaf_triangles_.reserve(tree_.prim_ids.size());
-  for (const auto& [first, count] : leaves) {
-    leaf.clear();
-    for (std::uint32_t i = first; i < first + count; ++i)
-      leaf.push_back(triangles[tree_.prim_ids[i]]);
-    leaf_triangles_.add_leaf(leaf.data(), count);
-  }
-  leaf_triangles_.finish();
-  wide_ = KdWideTree::from(tree_);
   if (wide_.max_depth > kWideDepthLimit)
     throw Error("--accel kd", "the tree is too deep for the wide layout's traversal stack");
   stats_.bytes +=

@@ -28,17 +28,20 @@ class KdLeafTriangles {
 
   KdLeafTriangles() = default;
 
-  // Room for the rows of `refs` references in all, so the rows are mapped once (growing by
-  // doubling would touch, and the kernel zero, twice the final size).
-  void reserve(std::size_t refs) { rows_.reserve(9 * refs + kPadding); }
+  // Room for the rows of `refs` references in all (mapped once, zero padding at the end).
+  void resize(std::size_t refs) { rows_.assign(9 * refs + kPadding, 0.0f); }
 
-  // Appends the rows of one leaf; leaves must be added in the order of their first index.
-  void add_leaf(const Triangle* triangles, std::uint32_t n) {
-    for (int k = 0; k < 3; ++k)
-      for (int c = 0; c < 3; ++c)
-        for (std::uint32_t i = 0; i < n; ++i) rows_.push_back(triangles[i].vertex(k)[c]);
+  // Writes the rows of the leaf whose n references start at `first` (ids: all references),
+  // within the size of resize(). Leaves write disjoint rows, so they may be filled in parallel.
+  void set_leaf(std::uint32_t first, std::uint32_t n, const std::uint32_t* ids,
+                const Triangle* triangles) {
+    float* rows = rows_.data() + 9 * std::size_t{first};
+    for (std::uint32_t i = 0; i < n; ++i) {
+      const Triangle& t = triangles[ids[first + i]];
+      for (int k = 0; k < 3; ++k)
+        for (int c = 0; c < 3; ++c) rows[(3 * k + c) * n + i] = t.vertex(k)[c];
+    }
   }
-  void finish() { rows_.resize(rows_.size() + kPadding, 0.0f); }
 
   const float* leaf(std::uint32_t first) const { return rows_.data() + 9 * std::size_t{first}; }
   std::size_t bytes() const { return rows_.size() * sizeof(float); }
