@@ -58,8 +58,12 @@ class BinnedBuilder {
     part->split = split.position;
     std::uint64_t eb = 0, ea = 0;
     tbb::parallel_invoke(
-        [&] { part->below = build_task(std::move(below), below_cell, below_content, depth + 1, eb); },
-        [&] { part->above = build_task(std::move(above), above_cell, above_content, depth + 1, ea); });
+        [&] {
+          part->below = build_task(std::move(below), below_cell, below_content, depth + 1, eb);
+        },
+        [&] {
+          part->above = build_task(std::move(above), above_cell, above_content, depth + 1, ea);
+        });
     evals += eb + ea;
     return part;
   }
@@ -80,8 +84,8 @@ class BinnedBuilder {
   }
 
   // A node whose arrays live in `arena`: sequential below it, written into `out`.
-  void build_small(std::span<const PrimRef> prims, const Aabb& cell, const Aabb& content,
-                   int depth, BumpArena& arena, KdChunk& out, std::uint64_t& evals) const {
+  void build_small(std::span<const PrimRef> prims, const Aabb& cell, const Aabb& content, int depth,
+                   BumpArena& arena, KdChunk& out, std::uint64_t& evals) const {
     const BinnedSplit split = choose(prims, cell, content, depth, false);
     evals += split.evals;
     if (split.axis < 0) {
