@@ -21,6 +21,8 @@
 #include "splitray/core/parallel.hpp"
 #include "splitray/io/mesh_io.hpp"
 #include "splitray/query/brute_force.hpp"
+#include "splitray/query/neural_point_build.hpp"
+#include "splitray/query/point_build.hpp"
 #include "splitray/query/point_tree.hpp"
 #include "splitray/query/surface_sampling.hpp"
 
@@ -538,6 +540,63 @@ TEST(NeuralPointTree, EqualsBruteForceForKNearestAndRadius) {
   // A SAH model is refused for points.
   config.model = model_file(NeuralCost::sah, 6);
   EXPECT_THROW(PointTree(points, config), Error);
+}
+
+// A leaf cell of a top keeps the top's extent on the axes it was not split on. A flat patch
+// (z = 0) cut off from a tall column by a top split on x sits in a cell 10 high: its
+// expansion must shed that height by an empty-space cut (no plane between its points can),
+// so that the patch's leaves are flat cells, and the tree costs no more than one built alone.
+TEST(NeuralPointTree, ExpandedCellsShedTheTopsEmptySpace) {
+  Pcg32 rng(3);
+  std::vector<Vec3> points;
+  for (int i = 0; i < 20000; ++i) points.push_back({rng.next_float(), rng.next_float(), 0.0f});
+  for (int i = 0; i < 20000; ++i)
+    points.push_back({2 + rng.next_float(), rng.next_float(), 10 * rng.next_float()});
+  Aabb bounds;
+  for (const Vec3& p : points) bounds.extend(p);
+  NeuralTop top;
+  top.nodes.resize(3);
+  top.nodes[0].box = bounds;
+  top.nodes[0].axis = 0;
+  top.nodes[0].split = 1.5f;
+  top.nodes[0].child[0] = 1;
+  top.nodes[0].child[1] = 2;
+  top.depth = 1;
+  PointTreeConfig config;
+  const float radius = 1e-4f * length(bounds.extent());
+  const PointBuildOutput expanded = expand_point_top(points, bounds, top, config, radius);
+  const PointBuildOutput alone = build_point_tree(points, bounds, config, radius);
+  const double cost_expanded = vvh_tree_cost(expanded.nodes, bounds, config, radius);
+  const double cost_alone = vvh_tree_cost(alone.nodes, bounds, config, radius);
+  EXPECT_LT(cost_expanded, 1.1 * cost_alone) << cost_expanded << " vs " << cost_alone;
+  struct Entry {
+    std::uint32_t node;
+    Aabb cell;
+  };
+  std::vector<Entry> stack{{0, bounds}};
+  std::size_t patch_leaves = 0;
+  while (!stack.empty()) {
+    const auto [index, cell] = stack.back();
+    stack.pop_back();
+    const PointNode& n = expanded.nodes[index];
+    if (n.is_leaf()) {
+      if (n.count() > 0 && points[expanded.permutation[n.index]].x < 1.5f) {
+        ++patch_leaves;
+        ASSERT_EQ(cell.hi.z, cell.lo.z)
+            << "a leaf of the flat patch in a cell of height " << cell.hi.z - cell.lo.z;
+      }
+      continue;
+    }
+    Aabb below = cell, above = cell;
+    below.hi[n.axis()] = n.below_max;
+    above.lo[n.axis()] = n.above_min;
+    stack.push_back({index + 1, below});
+    stack.push_back({index + n.index, above});
+  }
+  EXPECT_GT(patch_leaves, 1000u);
+  std::vector<std::uint32_t> sorted = expanded.permutation;
+  std::sort(sorted.begin(), sorted.end());
+  for (std::size_t i = 0; i < sorted.size(); ++i) ASSERT_EQ(sorted[i], i);
 }
 
 TEST(NeuralPointTree, TinyAndDegenerateInputsEqualBruteForce) {

@@ -3,6 +3,8 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 
 #include "splitray/accel/neural/neural_accel.hpp"
 #include "splitray/accel/neural/neural_sampling.hpp"
@@ -13,6 +15,67 @@ namespace splitray {
 
 namespace {
 
+// An empty-space cut in front of an expanded leaf cell: the slab between the cell's face and
+// its points' bound on `axis` (below them if `lower`) becomes an empty leaf.
+struct FaceCut {
+  int axis;
+  bool lower;
+};
+
+// The VVH cost (Eq. 4 + 6, in units of volume, not normalised) of the chain of `cuts` made in
+// order from `cell` toward `tight`, followed by `subtree` in the cell that is left.
+double cut_chain_cost(std::span<const FaceCut> cuts, Aabb cell, const Aabb& tight,
+                      std::span<const PointNode> subtree, const PointTreeConfig& config,
+                      float radius) {
+  double cost = 0;
+  for (const FaceCut& c : cuts) {
+    cost += config.traversal_cost * vvh_cell_volume(cell, radius);
+    (c.lower ? cell.lo : cell.hi)[c.axis] = (c.lower ? tight.lo : tight.hi)[c.axis];
+  }
+  return cost + vvh_tree_cost(subtree, cell, config, radius) * vvh_cell_volume(cell, radius);
+}
+
+// A leaf cell of the top keeps its parent's extent on every axis but the split ones, while the
+// expansion builder, like any build from scratch, starts from its points' tight box: otherwise a
+// face of the cell beyond the points could never be cut (the builders only cut between points)
+// and every node of the subtree touching it would keep that empty slab (a flat patch of a
+// surface in a cell as tall as the model costs 15 times its tight subtree). So the subtree is
+// built on the tight box and each face slab, largest first, is cut off by an empty-space cut
+// where that lowers the exact cost of the whole chain and subtree.
+std::vector<FaceCut> choose_face_cuts(const Aabb& cell, const Aabb& tight,
+                                      std::span<const PointNode> subtree,
+                                      const PointTreeConfig& config, float radius) {
+  struct Slab {
+    FaceCut cut;
+    double share;  // of the cell's extent on that axis (grown by the radius)
+  };
+  std::vector<Slab> slabs;
+  const Vec3 extent = cell.extent() + Vec3(2 * radius);
+  for (int a = 0; a < 3; ++a) {
+    if (tight.lo[a] > cell.lo[a])
+      slabs.push_back({{a, true}, (tight.lo[a] - cell.lo[a]) / extent[a]});
+    if (tight.hi[a] < cell.hi[a])
+      slabs.push_back({{a, false}, (cell.hi[a] - tight.hi[a]) / extent[a]});
+  }
+  std::stable_sort(slabs.begin(), slabs.end(),
+                   [](const Slab& x, const Slab& y) { return x.share > y.share; });
+  std::vector<FaceCut> cuts;
+  for (const Slab& s : slabs) cuts.push_back(s.cut);
+  double cost = cut_chain_cost(cuts, cell, tight, subtree, config, radius);
+  for (std::size_t i = 0; i < cuts.size();) {
+    std::vector<FaceCut> without = cuts;
+    without.erase(without.begin() + static_cast<std::ptrdiff_t>(i));
+    const double c = cut_chain_cost(without, cell, tight, subtree, config, radius);
+    if (c < cost) {
+      cost = c;
+      cuts = std::move(without);
+    } else {
+      ++i;
+    }
+  }
+  return cuts;
+}
+
 struct Expander {
   std::span<const Vec3> points;
   const NeuralTop& top;
@@ -21,6 +84,8 @@ struct Expander {
   std::vector<std::vector<std::uint32_t>> ids;  // per top node: its points (leaves only)
   std::vector<PointBuildOutput> built;          // per top node: the leaf cell's subtree
   std::vector<Aabb> cells;                      // per top node: the cell the tree gives it
+  std::vector<Aabb> tight;                      // per top leaf: its points' bounding box
+  std::vector<std::vector<FaceCut>> cuts;       // per top leaf: the cuts in front of it
 
   // The cells as the final tree sees them: a child's cell ends at the tight bound of its points
   // on the split axis (PointNode's below_max / above_min). Returns the node's point count.
@@ -69,17 +134,42 @@ struct Expander {
     assign_cells(n.child[1], upper, leaves);
   }
 
-  void emit(int node, PointBuildOutput& out) {
-    const NeuralTopNode& n = top.nodes[static_cast<std::size_t>(node)];
-    if (n.leaf()) {
-      const PointBuildOutput& sub_tree = built[static_cast<std::size_t>(node)];
-      const auto offset = static_cast<std::uint32_t>(out.permutation.size());
-      const std::vector<std::uint32_t>& local = ids[static_cast<std::size_t>(node)];
+  // Top leaf `node`: its face cuts from the k-th on, then its subtree.
+  void emit_leaf(std::size_t node, std::size_t k, PointBuildOutput& out) {
+    const auto offset = static_cast<std::uint32_t>(out.permutation.size());
+    if (k == cuts[node].size()) {
+      const PointBuildOutput& sub_tree = built[node];
+      const std::vector<std::uint32_t>& local = ids[node];
       for (PointNode p : sub_tree.nodes) {
         if (p.is_leaf()) p.index += offset;  // interior indices are relative: unchanged
         out.nodes.push_back(p);
       }
       for (const std::uint32_t i : sub_tree.permutation) out.permutation.push_back(local[i]);
+      return;
+    }
+    constexpr float kInf = std::numeric_limits<float>::infinity();
+    const FaceCut cut = cuts[node][k];
+    const float bound = (cut.lower ? tight[node].lo : tight[node].hi)[cut.axis];
+    PointNode interior, empty;
+    interior.bits = static_cast<std::uint32_t>(cut.axis);
+    interior.below_max = cut.lower ? std::nextafter(bound, -kInf) : bound;
+    interior.above_min = cut.lower ? bound : std::nextafter(bound, kInf);
+    empty.index = offset;  // no points
+    empty.bits = 3u;
+    const std::size_t self = out.nodes.size();
+    out.nodes.push_back(interior);
+    if (cut.lower) out.nodes.push_back(empty);
+    const std::size_t rest = out.nodes.size();
+    emit_leaf(node, k + 1, out);
+    out.nodes[self].index =
+        static_cast<std::uint32_t>(cut.lower ? rest - self : out.nodes.size() - self);
+    if (!cut.lower) out.nodes.push_back(empty);
+  }
+
+  void emit(int node, PointBuildOutput& out) {
+    const NeuralTopNode& n = top.nodes[static_cast<std::size_t>(node)];
+    if (n.leaf()) {
+      emit_leaf(static_cast<std::size_t>(node), 0, out);
       return;
     }
     const std::size_t below = count(n.child[0]), above = count(n.child[1]);
@@ -123,12 +213,14 @@ NeuralTop infer_point_top(const NeuralModel& model, std::span<const Vec3> points
 PointBuildOutput expand_point_top(std::span<const Vec3> points, const Aabb& bounds,
                                   const NeuralTop& top, const PointTreeConfig& config,
                                   float radius) {
-  Expander ex{points, top, config, radius, {}, {}, {}};
+  Expander ex{points, top, config, radius, {}, {}, {}, {}, {}};
   ex.sub.builder = config.expand.empty() ? "vvh" : config.expand;
   if (ex.sub.builder == "neural") throw Error("--expand", "neural cannot expand its own top");
   ex.ids.resize(top.nodes.size());
   ex.built.resize(top.nodes.size());
   ex.cells.resize(top.nodes.size());
+  ex.tight.resize(top.nodes.size());
+  ex.cuts.resize(top.nodes.size());
   // Population: every point to the one leaf cell on its side of every split (below: < split).
   for (std::size_t i = 0; i < points.size(); ++i) {
     int node = 0;
@@ -146,8 +238,13 @@ PointBuildOutput expand_point_top(std::span<const Vec3> points, const Aabb& boun
     if (ids.empty()) return;  // only a lone root cell can be empty, and points exist
     std::vector<Vec3> subset;
     subset.reserve(ids.size());
-    for (const std::uint32_t i : ids) subset.push_back(points[i]);
-    ex.built[node] = build_point_tree(subset, ex.cells[node], ex.sub, radius);
+    Aabb& tight = ex.tight[node];
+    for (const std::uint32_t i : ids) {
+      subset.push_back(points[i]);
+      tight.extend(points[i]);
+    }
+    ex.built[node] = build_point_tree(subset, tight, ex.sub, radius);
+    ex.cuts[node] = choose_face_cuts(ex.cells[node], tight, ex.built[node].nodes, ex.sub, radius);
   });
   PointBuildOutput out;
   out.nodes.reserve(4 * points.size() / std::max(1, config.leaf_size) + 16);

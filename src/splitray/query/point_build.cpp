@@ -1,7 +1,8 @@
 #include "splitray/query/point_build.hpp"
-#include "splitray/query/neural_point_build.hpp"
 
 #include <tbb/parallel_invoke.h>
+
+#include "splitray/query/neural_point_build.hpp"
 
 #if defined(__AVX512F__)
 #include <immintrin.h>
@@ -363,12 +364,14 @@ PointBuildOutput build_point_tree(std::span<const Vec3> points, const Aabb& boun
   return out;
 }
 
+double vvh_cell_volume(const Aabb& cell, float radius) {
+  const Vec3 e = cell.extent() + Vec3(2 * radius);
+  return static_cast<double>(e.x) * e.y * e.z;
+}
+
 double vvh_tree_cost(std::span<const PointNode> nodes, const Aabb& bounds,
                      const PointTreeConfig& config, float radius) {
-  const auto volume = [&](const Aabb& cell) {
-    const Vec3 e = cell.extent() + Vec3(2 * radius);
-    return static_cast<double>(e.x) * e.y * e.z;
-  };
+  const auto volume = [&](const Aabb& cell) { return vvh_cell_volume(cell, radius); };
   const double root_volume = volume(bounds);
   if (!(root_volume > 0)) return 0;
   struct Entry {

@@ -21,6 +21,9 @@ struct PointBuildOutput {
 PointBuildOutput build_point_tree(std::span<const Vec3> points, const Aabb& bounds,
                                   const PointTreeConfig& config, float radius);
 
+// The weight of a cell in Eq. 6: its volume grown by `radius` on every side.
+double vvh_cell_volume(const Aabb& cell, float radius);
+
 // Paper 003 Eq. 4 + 6 evaluated on a finished tree: every node weighted by the volume of its
 // cell (expanded by `radius`) relative to the root's; interior nodes cost c_t, leaves c_i N.
 double vvh_tree_cost(std::span<const PointNode> nodes, const Aabb& bounds,
