@@ -549,6 +549,7 @@ TEST(NeuralPointTree, EqualsBruteForceForKNearestAndRadius) {
 TEST(NeuralPointTree, ExpandedCellsShedTheTopsEmptySpace) {
   Pcg32 rng(3);
   std::vector<Vec3> points;
+  points.reserve(40000);
   for (int i = 0; i < 20000; ++i) points.push_back({rng.next_float(), rng.next_float(), 0.0f});
   for (int i = 0; i < 20000; ++i)
     points.push_back({2 + rng.next_float(), rng.next_float(), 10 * rng.next_float()});

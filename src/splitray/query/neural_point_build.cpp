@@ -60,6 +60,7 @@ std::vector<FaceCut> choose_face_cuts(const Aabb& cell, const Aabb& tight,
   std::stable_sort(slabs.begin(), slabs.end(),
                    [](const Slab& x, const Slab& y) { return x.share > y.share; });
   std::vector<FaceCut> cuts;
+  cuts.reserve(slabs.size());
   for (const Slab& s : slabs) cuts.push_back(s.cut);
   double cost = cut_chain_cost(cuts, cell, tight, subtree, config, radius);
   for (std::size_t i = 0; i < cuts.size();) {

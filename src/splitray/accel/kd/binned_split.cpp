@@ -130,7 +130,7 @@ BinnedSplit find_binned_split(std::span<const PrimRef> prims, const Aabb& cell, 
     hist = heap_hist.data();
   }
   std::fill(hist, hist + slots, 0u);
-  std::array<double, 3 * kStackBins> stack_sweep;  // sweep_bins' scratch
+  std::array<double, std::size_t{3} * kStackBins> stack_sweep;  // sweep_bins' scratch
   std::vector<double> heap_sweep;
   double* sweep = stack_sweep.data();
   if (bins > kStackBins) {
