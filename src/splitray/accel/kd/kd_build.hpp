@@ -1,7 +1,9 @@
 #pragma once
-// What every kd builder produces and shares. A builder returns a temporary pointer tree of
-// KdBuildNode; flatten_kd() lays it out as compact 8-byte nodes, depth first, so that the
-// final tree depends only on the build decisions, never on the thread count or order.
+// What every kd builder produces and shares: the finished tree (the builders write compact
+// nodes directly, kd_emit.hpp) or a temporary pointer tree of KdBuildNode (simple builders,
+// such as the tests' reference ones), which flatten_kd() lays out as compact 8-byte nodes,
+// depth first; either way the final tree depends only on the build decisions, never on the
+// thread count or order.
 #include <cstdint>
 #include <memory>
 #include <optional>

@@ -1,7 +1,7 @@
 #pragma once
-// The fast builders write their trees straight into compact nodes instead of a pointer tree
+// The builders write their trees straight into compact nodes instead of a pointer tree
 // (a build makes hundreds of thousands of nodes; one heap node each cost as much as the
-// split search). A sequential subtree appends to a KdChunk, depth first; the few large
+// split search of golden's or binned's nodes, and sah built 1.4x faster without them). A sequential subtree appends to a KdChunk, depth first; the few large
 // nodes built as parallel tasks form a small KdPartial tree whose leaves are chunks, and
 // assemble_kd lays the whole out depth first, exactly as flatten_kd would: the tree depends
 // only on the build decisions, never on the thread count.

@@ -15,6 +15,7 @@
 
 #include "splitray/accel/kd/clip.hpp"
 #include "splitray/accel/kd/kd_build.hpp"
+#include "splitray/accel/kd/kd_emit.hpp"
 #include "splitray/accel/kd/kd_sah.hpp"
 #include "splitray/core/errors.hpp"
 
@@ -103,34 +104,34 @@ class SahBuilder {
         max_depth_(kd_max_depth(config, triangles.size())),
         max_leaf_prims_(static_cast<std::size_t>(std::max(config.max_leaf_prims, 0))) {}
 
-  std::unique_ptr<KdBuildNode> build(Node node, int depth) {
-    const std::size_t n = node.tris.size();
-    if (n <= max_leaf_prims_ || depth >= max_depth_) return make_leaf(node);
-    const Split split = find_split(node);
-    if (!(split.cost < sah_.leaf(n))) return make_leaf(node);
-
+  // A subtree of at least kParallelPrims triangles: its children build as tasks, each into a
+  // part of its own; smaller subtrees are written into one chunk, depth first (kd_emit.hpp).
+  std::unique_ptr<KdPartial> build(Node node, int depth) {
+    auto part = std::make_unique<KdPartial>();
+    if (node.tris.size() < kParallelPrims) {
+      build_chunk(std::move(node), depth, part->chunk);
+      return part;
+    }
+    const Split split = choose(node, depth);
+    if (split.axis < 0) {
+      add_leaf(node, part->chunk);
+      return part;
+    }
     Node below, above;
     partition(node, split, below, above);
     node = Node{};  // free the parent's lists before descending
-
-    auto result = std::make_unique<KdBuildNode>();
-    result->axis = split.axis;
-    result->split = split.pos;
-    if (n >= kParallelPrims) {
-      tbb::task_group group;
-      group.run([&] { result->below = build(std::move(below), depth + 1); });
-      try {
-        result->above = build(std::move(above), depth + 1);
-      } catch (...) {
-        group.wait();  // the task refers to this frame
-        throw;
-      }
-      group.wait();
-    } else {
-      result->below = build(std::move(below), depth + 1);
-      result->above = build(std::move(above), depth + 1);
+    part->axis = split.axis;
+    part->split = split.pos;
+    tbb::task_group group;
+    group.run([&] { part->below = build(std::move(below), depth + 1); });
+    try {
+      part->above = build(std::move(above), depth + 1);
+    } catch (...) {
+      group.wait();  // the task refers to this frame
+      throw;
     }
-    return result;
+    group.wait();
+    return part;
   }
 
   std::uint64_t cost_evals() const { return cost_evals_.load(); }
@@ -139,11 +140,33 @@ class SahBuilder {
   static constexpr std::size_t kParallelPrims = 2048;        // smaller subtrees: one task
   static constexpr std::size_t kParallelSweepPrims = 32768;  // sweep the three axes at once
 
-  static std::unique_ptr<KdBuildNode> make_leaf(Node& node) {
-    auto leaf = std::make_unique<KdBuildNode>();
-    leaf->prims = std::move(node.tris);
-    std::sort(leaf->prims.begin(), leaf->prims.end());
-    return leaf;
+  void build_chunk(Node node, int depth, KdChunk& out) {
+    const Split split = choose(node, depth);
+    if (split.axis < 0) {
+      add_leaf(node, out);
+      return;
+    }
+    Node below, above;
+    partition(node, split, below, above);
+    node = Node{};
+    const std::size_t index = out.open_interior();
+    build_chunk(std::move(below), depth + 1, out);
+    out.set_interior(index, split.axis, split.pos);
+    build_chunk(std::move(above), depth + 1, out);
+  }
+
+  // The split to make, or axis -1 for a leaf.
+  Split choose(const Node& node, int depth) {
+    const std::size_t n = node.tris.size();
+    if (n <= max_leaf_prims_ || depth >= max_depth_) return {};
+    Split split = find_split(node);
+    if (!(split.cost < sah_.leaf(n))) split.axis = -1;
+    return split;
+  }
+
+  static void add_leaf(Node& node, KdChunk& out) {
+    std::sort(node.tris.begin(), node.tris.end());
+    out.add_leaf(node.tris);
   }
 
   Split find_split(const Node& node) {
@@ -336,7 +359,8 @@ KdBuildResult build_kd_sah(std::span<const Triangle> triangles, const Aabb& boun
 
   SahBuilder builder(triangles, config);
   KdBuildResult result;
-  result.root = builder.build(std::move(root), 0);
+  const std::unique_ptr<KdPartial> top = builder.build(std::move(root), 0);
+  result.tree = assemble_kd(*top, bounds);
   result.cost_evals = builder.cost_evals();
   return result;
 }
