@@ -112,18 +112,32 @@ struct Candidates {
   std::size_t m = 0;
 };
 
-// Candidates come as lo 0, hi 0, lo 1, ...: p was taken before when a lower lane has a
-// bound at p (a lane's own lo and hi differ unless it is in-plane, with one candidate).
-// Branch-free: every bound is counted and written, and kept (the next one written after it)
-// only when new and inside the cell; which bounds those are is data the branch predictor
-// cannot learn (clipped bounds at the cell's faces, bounds shared by neighbours).
+// First the bounds strictly inside the cell (a lane's hi only where it is not in-plane), in a
+// branch-free pass: which bounds those are is data the branch predictor cannot learn (on the
+// dragon 39% of the small nodes' bounds are clipped to a face or lie outside, on sibenik 55%),
+// and only they cost a count. A bound is then kept (the next one written after it) unless a
+// lower lane has a bound at the same position, so each position is costed once.
 void collect_candidates(const AxisLanes& lanes, const KdAxisCost& axis_cost, float cell_lo,
                         float cell_hi, Candidates& c) {
+  float inside[2 * kSmallSplitMaxPrims];
+  std::uint8_t lane[2 * kSmallSplitMaxPrims];
+  std::size_t k = 0;
+  for (std::size_t i = 0; i < lanes.n; ++i) {
+    const float lo = lanes.lo[i], hi = lanes.hi[i];
+    const bool planar = lanes.planar >> i & 1;
+    inside[k] = lo;
+    lane[k] = static_cast<std::uint8_t>(i);
+    k += (lo > cell_lo) & (lo < cell_hi);
+    inside[k] = hi;
+    lane[k] = static_cast<std::uint8_t>(i);
+    k += (hi > cell_lo) & (hi < cell_hi) & !planar;
+  }
   std::size_t m = 0;
-  const auto take = [&](float p, std::uint64_t earlier, bool exists) {
+  for (std::size_t j = 0; j < k; ++j) {
+    float p = inside[j];
     const PlaneMasks masks = plane_masks(lanes, p);
-    const bool keep =
-        exists && p > cell_lo && p < cell_hi && !((masks.lo_at | masks.hi_at) & earlier);
+    const std::uint64_t earlier = (std::uint64_t{1} << lane[j]) - 1;
+    const bool keep = !((masks.lo_at | masks.hi_at) & earlier);
     p += 0.0f;  // -0 as +0, as the sweep's order puts them together
     c.position[m] = p;
     c.extent_below[m] = axis_cost.extent_below(p);
@@ -132,11 +146,6 @@ void collect_candidates(const AxisLanes& lanes, const KdAxisCost& axis_cost, flo
     c.above[m] = static_cast<double>(std::popcount(masks.hi_above));
     c.planar[m] = static_cast<double>(std::popcount(masks.lo_at & lanes.planar));
     m += keep;
-  };
-  for (std::size_t i = 0; i < lanes.n; ++i) {
-    const std::uint64_t earlier = (std::uint64_t{1} << i) - 1;
-    take(lanes.lo[i], earlier, true);
-    take(lanes.hi[i], earlier, !(lanes.planar >> i & 1));
   }
   c.m = m;
 }
