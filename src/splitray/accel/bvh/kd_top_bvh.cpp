@@ -17,16 +17,19 @@ namespace {
 constexpr std::size_t kAssignChunk =
     4096;  // fixed chunks: the reference order never depends on threads
 
-int add_kd_cells(const KdBuildNode& node, const Aabb& box, int depth, std::vector<TopCell>& cells) {
+int add_kd_cells(const KdTree& tree, std::uint32_t node, const Aabb& box, int depth,
+                 std::vector<TopCell>& cells) {
   const int index = static_cast<int>(cells.size());
   cells.push_back({box});
-  if (node.axis < 0 || depth <= 0 || !node.below || !node.above) return index;
+  const KdNode& n = tree.nodes[node];
+  if (n.is_leaf() || depth <= 0) return index;
+  const int axis = n.axis();
   Aabb below = box, above = box;
-  below.hi[node.axis] = node.split;
-  above.lo[node.axis] = node.split;
-  cells[index].axis = node.axis;
-  const int b = add_kd_cells(*node.below, below, depth - 1, cells);
-  const int a = add_kd_cells(*node.above, above, depth - 1, cells);
+  below.hi[axis] = n.split;
+  above.lo[axis] = n.split;
+  cells[index].axis = axis;
+  const int b = add_kd_cells(tree, node + 1, below, depth - 1, cells);
+  const int a = add_kd_cells(tree, n.above(), above, depth - 1, cells);
   cells[index].child[0] = b;
   cells[index].child[1] = a;
   return index;
@@ -103,9 +106,9 @@ std::unique_ptr<BvhPiece> assemble(std::span<const TopCell> cells, int cell,
 
 }  // namespace
 
-std::vector<TopCell> top_cells_from_kd(const KdBuildNode& root, const Aabb& bounds, int depth) {
+std::vector<TopCell> top_cells_from_kd(const KdTree& tree, int depth) {
   std::vector<TopCell> cells;
-  add_kd_cells(root, bounds, depth, cells);
+  if (!tree.nodes.empty()) add_kd_cells(tree, 0, tree.bounds, depth, cells);
   return cells;
 }
 
@@ -216,8 +219,8 @@ Bvh build_kd_top_bvh(std::span<const Triangle> triangles, int depth, LeafExpande
   for (const Triangle& t : triangles) bounds.extend(t.bounds());
   BuildConfig top_config = config;
   top_config.max_depth = std::max(depth, 1);
-  const KdBuildResult kd = build_kd_sah(triangles, bounds, top_config);
-  const std::vector<TopCell> cells = top_cells_from_kd(*kd.root, bounds, depth);
+  KdBuildResult kd = build_kd_sah(triangles, bounds, top_config);
+  const std::vector<TopCell> cells = top_cells_from_kd(take_kd_tree(kd, bounds), depth);
   return build_top_bvh(triangles, cells, expander, BvhBuildOptions::from(config), stats);
 }
 

@@ -27,8 +27,8 @@ struct TopCell {
   bool leaf() const { return child[0] < 0; }
 };
 
-// The cells of a kd build tree (root cell `bounds`) down to `depth` levels below the root.
-std::vector<TopCell> top_cells_from_kd(const KdBuildNode& root, const Aabb& bounds, int depth);
+// The cells of a kd-tree down to `depth` levels below its root.
+std::vector<TopCell> top_cells_from_kd(const KdTree& tree, int depth);
 // A tree over given disjoint leaf boxes (median splits of their centres); together the boxes
 // must cover every triangle that will be assigned to them.
 std::vector<TopCell> top_cells_from_boxes(std::span<const Aabb> boxes);
