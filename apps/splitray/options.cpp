@@ -118,7 +118,10 @@ void add_accel_options(CLI::App& command, AccelOptions& options) {
                   "Nodes with this many triangles or fewer become leaves")
       ->check(CLI::Range(1, 1 << 20))
       ->group(group);
-  command.add_option("--bins", options.build.bins, "Bins per axis of binned builders")
+  command
+      .add_option(
+          "--bins", options.build.bins,
+          "Bins per axis of binned builders (kd binned: in nodes of more than 64 triangles)")
       ->check(CLI::Range(2, 1 << 16))
       ->group(group);
   command
