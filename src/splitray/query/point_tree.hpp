@@ -42,7 +42,8 @@ struct PointTreeConfig {
 
 // Interior: the points below have coordinate[axis] <= below_max < above_min <= the points
 // above; the below child follows this node, the above child is `index` nodes further on.
-// Leaf: points permutation[index, index + count).
+// Leaf: points permutation[index, index + count); count 0 for the empty side of an
+// empty-space cut (the neural builder's expanded top cells, neural_point_build.cpp).
 struct PointNode {
   float below_max = 0;
   float above_min = 0;
@@ -84,7 +85,8 @@ class PointTree {
   // All points within distance r, sorted by (distance, index); appended to the vectors.
   void radius(const Vec3& query, float r, std::vector<std::uint32_t>& indices,
               std::vector<float>& distances) const;
-  // Point-in-leaf: the points of the leaf whose cell holds the query (below < above_min).
+  // Point-in-leaf: the points of the leaf whose cell holds the query (below < above_min);
+  // none where that is an empty-space cut's empty leaf (builder neural, in empty space).
   std::span<const std::uint32_t> leaf_points(const Vec3& query) const;
   std::uint32_t leaf_node(const Vec3& query) const;
 
