@@ -16,14 +16,13 @@
 
 #include "hierarchy_oracle.hpp"
 #include "splitray/accel/brute/brute.hpp"
-#include "splitray/accel/kd/binned_clip.hpp"
-#include "splitray/accel/kd/clip.hpp"
 #include "splitray/accel/kd/golden_events.hpp"
 #include "splitray/accel/kd/golden_search.hpp"
 #include "splitray/accel/kd/golden_small.hpp"
 #include "splitray/accel/kd/kd_accel.hpp"
 #include "splitray/accel/kd/kd_emit.hpp"
 #include "splitray/accel/kd/kd_sah.hpp"
+#include "splitray/accel/triangle_clip.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/core/random.hpp"
 #include "splitray/io/mesh_io.hpp"
@@ -254,34 +253,6 @@ TEST(GoldenSearch, NoPositionInsideADegenerateCellIsValid) {
 
 std::vector<Triangle> horse() {
   return test::load_triangles(test::vendored_file("horse/horse.obj.gz"));
-}
-
-TEST(FastClip, EqualsClipTriangleBounds) {
-  const std::vector<Triangle> tris = horse();
-  Pcg32 rng(11);
-  for (int i = 0; i < 200000; ++i) {
-    const Triangle& t = tris[rng.next_u32() % tris.size()];
-    const Aabb tb = t.bounds();
-    Aabb box;
-    for (int a = 0; a < 3; ++a) {
-      const float ext = tb.hi[a] - tb.lo[a];
-      const auto pick = [&] {
-        switch (rng.next_u32() % 4) {
-          case 0:
-            return tb.lo[a];
-          case 1:
-            return tb.hi[a];
-          default:
-            return tb.lo[a] - 0.2f * ext + 1.4f * ext * rng.next_float();
-        }
-      };
-      float p = pick(), q = pick();
-      if (p > q) std::swap(p, q);
-      box.lo[a] = p, box.hi[a] = q;
-    }
-    const Aabb expected = clip_triangle_bounds(t, box), got = clip_triangle_bounds_fast(t, box);
-    ASSERT_TRUE(expected.lo == got.lo && expected.hi == got.hi) << "clip " << i;
-  }
 }
 
 // The root's event lists of a real mesh: golden search against the exhaustive scan per axis.

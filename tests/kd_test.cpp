@@ -14,9 +14,9 @@
 #include <string>
 
 #include "splitray/accel/brute/brute.hpp"
-#include "splitray/accel/kd/clip.hpp"
 #include "splitray/accel/kd/kd_accel.hpp"
 #include "splitray/accel/kd/kd_sah.hpp"
+#include "splitray/accel/triangle_clip.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/core/mesh.hpp"
 #include "splitray/core/random.hpp"

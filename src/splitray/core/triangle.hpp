@@ -44,19 +44,43 @@ struct WatertightRay {
 
 // Tests the ray against the triangle for tmin <= t <= tmax. On a hit stores t and the
 // barycentrics (u of v1, v of v2) and returns true. Both faces are hit.
+//
+// Two cases are decided in double precision, where the float edge functions cannot be
+// trusted: an edge function exactly zero (the ray through an edge or a vertex: watertight),
+// and a determinant small against the products it comes from (8 |det| < the sum of their
+// magnitudes: a sliver or a triangle seen nearly edge-on). In the second case the float
+// barycentrics are rounding noise, and a hit reported from them may lie far outside the
+// triangle, where no hierarchy's cell holding the triangle reaches. In double the products
+// are exact; a triangle still degenerate there (|det| < 2^-26 of them: collinear or seen
+// exactly edge-on) is not hit, so every structure and brute force agree that it is missed.
 inline bool intersect_triangle(const WatertightRay& r, const Triangle& tri, float tmin, float tmax,
                                float& t_out, float& u_out, float& v_out) {
   const Vec3 a = tri.v0 - r.org, b = tri.v1 - r.org, c = tri.v2 - r.org;
   const float ax = a[r.kx] - r.sx * a[r.kz], ay = a[r.ky] - r.sy * a[r.kz];
   const float bx = b[r.kx] - r.sx * b[r.kz], by = b[r.ky] - r.sy * b[r.kz];
   const float cx = c[r.kx] - r.sx * c[r.kz], cy = c[r.ky] - r.sy * c[r.kz];
-  float u = cx * by - cy * bx;
-  float v = ax * cy - ay * cx;
-  float w = bx * ay - by * ax;
-  if (u == 0.0f || v == 0.0f || w == 0.0f) {  // on an edge in float: decide in double
-    u = static_cast<float>(static_cast<double>(cx) * by - static_cast<double>(cy) * bx);
-    v = static_cast<float>(static_cast<double>(ax) * cy - static_cast<double>(ay) * cx);
-    w = static_cast<float>(static_cast<double>(bx) * ay - static_cast<double>(by) * ax);
+  const float u1 = cx * by, u2 = cy * bx, v1 = ax * cy, v2 = ay * cx, w1 = bx * ay, w2 = by * ax;
+  float u = u1 - u2;
+  float v = v1 - v2;
+  float w = w1 - w2;
+  bool in_double = u == 0.0f || v == 0.0f || w == 0.0f;
+  if (!in_double) {
+    if ((u < 0 || v < 0 || w < 0) && (u > 0 || v > 0 || w > 0)) return false;
+    const float magnitude = (std::fabs(u1) + std::fabs(u2)) + (std::fabs(v1) + std::fabs(v2)) +
+                            (std::fabs(w1) + std::fabs(w2));
+    in_double = 8.0f * std::fabs(u + v + w) < magnitude;
+  }
+  if (in_double) {
+    const double du1 = static_cast<double>(cx) * by, du2 = static_cast<double>(cy) * bx;
+    const double dv1 = static_cast<double>(ax) * cy, dv2 = static_cast<double>(ay) * cx;
+    const double dw1 = static_cast<double>(bx) * ay, dw2 = static_cast<double>(by) * ax;
+    const double du = du1 - du2, dv = dv1 - dv2, dw = dw1 - dw2;
+    const double magnitude = std::fabs(du1) + std::fabs(du2) + std::fabs(dv1) + std::fabs(dv2) +
+                             std::fabs(dw1) + std::fabs(dw2);
+    if (!(std::fabs(du + dv + dw) * 0x1p26 >= magnitude)) return false;  // degenerate
+    u = static_cast<float>(du);
+    v = static_cast<float>(dv);
+    w = static_cast<float>(dw);
   }
   if ((u < 0 || v < 0 || w < 0) && (u > 0 || v > 0 || w > 0)) return false;
   const float det = u + v + w;

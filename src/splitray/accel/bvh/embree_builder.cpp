@@ -9,7 +9,7 @@
 #include <new>
 
 #include "splitray/accel/bvh/bvh_build.hpp"
-#include "splitray/accel/bvh/triangle_split.hpp"
+#include "splitray/accel/triangle_clip.hpp"
 #include "splitray/core/errors.hpp"
 
 namespace splitray {

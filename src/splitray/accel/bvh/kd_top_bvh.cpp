@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <numeric>
 
-#include "splitray/accel/kd/clip.hpp"
+#include "splitray/accel/triangle_clip.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/core/parallel.hpp"
 #include "splitray/core/timer.hpp"

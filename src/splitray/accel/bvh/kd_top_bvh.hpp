@@ -3,7 +3,8 @@
 // fixed-depth top becomes a ray-tracing hierarchy:
 //   1. the top's leaf cells are disjoint boxes that cover the scene;
 //   2. every triangle is referenced from each leaf cell it overlaps, with its bounds clipped
-//      to the cell (accel/kd/clip.hpp), so no cell's bounds reach into another;
+//      to the cell (accel/triangle_clip.hpp, conservative), so no cell's bounds reach into
+//      another;
 //   3. each cell's references are expanded into a BVH by one of our builders (binned, sbvh)
 //      or by Embree's custom builder (rtcBuildBVH);
 //   4. the top's boxes are refitted bottom-up to their children, cells without triangles

@@ -3,8 +3,8 @@
 // would overlap by more than alpha times the root's area it also bins the node's box in space,
 // clipping each reference to the bins it crosses, and takes the cheaper of the two. A spatial
 // split sends each straddling reference to both sides, clipped, unless moving it whole to one
-// side is cheaper (reference unsplitting, §4.4). References are split at planes in one pass
-// over the triangle's edges (triangle_split.hpp).
+// side is cheaper (reference unsplitting, §4.4). References are split at planes by the
+// conservative clip of accel/triangle_clip.hpp (split_triangle_bounds).
 #include <tbb/parallel_invoke.h>
 
 #include <algorithm>
@@ -13,7 +13,7 @@
 
 #include "splitray/accel/bvh/bvh_build.hpp"
 #include "splitray/accel/bvh/object_split.hpp"
-#include "splitray/accel/bvh/triangle_split.hpp"
+#include "splitray/accel/triangle_clip.hpp"
 
 namespace splitray {
 

@@ -14,6 +14,7 @@
 #include <optional>
 
 #include "splitray/accel/bvh/robust_ray.hpp"
+#include "splitray/core/triangle_simd.hpp"
 
 namespace splitray {
 
@@ -279,80 +280,26 @@ inline void prefetch(const void* p) {
 #endif
 }
 
-// The watertight test of triangle.hpp on the eight triangles of a block at once: the same
-// IEEE operations in the same order, lane by lane. Lanes where an edge function is exactly
-// zero (decided in double precision by the scalar test) are returned in `scalar` and left to
-// that test; without AVX every lane is (the portable build tests one triangle at a time).
+// The eight triangles of a block through the 8-wide watertight test (core/triangle_simd.hpp);
+// the lanes it hands back, and without AVX every lane, go to the scalar test (the portable
+// build tests one triangle at a time).
 struct WatertightBlock {
-  int k[3];  // kx, ky, kz
 #if defined(__AVX__)
-  __m256 org[3], sx, sy, sz;  // org[i] = origin[k[i]]
-#endif
-  explicit WatertightBlock(const WatertightRay& ray) : k{ray.kx, ray.ky, ray.kz} {
-    const float o[3] = {ray.org.x, ray.org.y, ray.org.z};  // indexed without branches
-#if defined(__AVX__)
-    for (int i = 0; i < 3; ++i) org[i] = _mm256_set1_ps(o[k[i]]);
-    sx = _mm256_set1_ps(ray.sx);
-    sy = _mm256_set1_ps(ray.sy);
-    sz = _mm256_set1_ps(ray.sz);
-#else
-    (void)o;
-#endif
-  }
-
-  // Bit i: lane i hits with tmin <= t <= tmax (t, u, v stored).
+  Watertight8 test8;
+  explicit WatertightBlock(const WatertightRay& ray) : test8(ray) {}
   unsigned test(const TriangleBlock& b, float tmin, float tmax, float* t_out, float* u_out,
                 float* v_out, unsigned& scalar) const {
-#if defined(__AVX__)
-    const auto row = [&](int vertex, int i) {
-      return _mm256_sub_ps(_mm256_load_ps(b.v[3 * vertex + k[i]]), org[i]);
-    };
-    const __m256 a_x = row(0, 0), a_y = row(0, 1), a_z = row(0, 2);
-    const __m256 b_x = row(1, 0), b_y = row(1, 1), b_z = row(1, 2);
-    const __m256 c_x = row(2, 0), c_y = row(2, 1), c_z = row(2, 2);
-    const __m256 ax = _mm256_sub_ps(a_x, _mm256_mul_ps(sx, a_z)),
-                 ay = _mm256_sub_ps(a_y, _mm256_mul_ps(sy, a_z));
-    const __m256 bx = _mm256_sub_ps(b_x, _mm256_mul_ps(sx, b_z)),
-                 by = _mm256_sub_ps(b_y, _mm256_mul_ps(sy, b_z));
-    const __m256 cx = _mm256_sub_ps(c_x, _mm256_mul_ps(sx, c_z)),
-                 cy = _mm256_sub_ps(c_y, _mm256_mul_ps(sy, c_z));
-    const __m256 u = _mm256_sub_ps(_mm256_mul_ps(cx, by), _mm256_mul_ps(cy, bx));
-    const __m256 v = _mm256_sub_ps(_mm256_mul_ps(ax, cy), _mm256_mul_ps(ay, cx));
-    const __m256 e = _mm256_sub_ps(_mm256_mul_ps(bx, ay), _mm256_mul_ps(by, ax));
-    const __m256 zero = _mm256_setzero_ps();
-    const __m256 on_edge = _mm256_or_ps(
-        _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_EQ_OQ), _mm256_cmp_ps(v, zero, _CMP_EQ_OQ)),
-        _mm256_cmp_ps(e, zero, _CMP_EQ_OQ));
-    scalar = static_cast<unsigned>(_mm256_movemask_ps(on_edge));
-    const __m256 negative = _mm256_or_ps(
-        _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_LT_OQ), _mm256_cmp_ps(v, zero, _CMP_LT_OQ)),
-        _mm256_cmp_ps(e, zero, _CMP_LT_OQ));
-    const __m256 positive = _mm256_or_ps(
-        _mm256_or_ps(_mm256_cmp_ps(u, zero, _CMP_GT_OQ), _mm256_cmp_ps(v, zero, _CMP_GT_OQ)),
-        _mm256_cmp_ps(e, zero, _CMP_GT_OQ));
-    const __m256 det = _mm256_add_ps(_mm256_add_ps(u, v), e);
-    const __m256 outside = _mm256_or_ps(
-        _mm256_or_ps(_mm256_and_ps(negative, positive), _mm256_cmp_ps(det, zero, _CMP_EQ_OQ)),
-        on_edge);
-    if (_mm256_movemask_ps(outside) == 0xff) return 0;
-    const __m256 az = _mm256_mul_ps(sz, a_z), bz = _mm256_mul_ps(sz, b_z),
-                 cz = _mm256_mul_ps(sz, c_z);
-    const __m256 t_scaled = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(u, az), _mm256_mul_ps(v, bz)),
-                                          _mm256_mul_ps(e, cz));
-    const __m256 inv_det = _mm256_div_ps(_mm256_set1_ps(1.0f), det);
-    const __m256 t = _mm256_mul_ps(t_scaled, inv_det);
-    const __m256 in_range = _mm256_and_ps(_mm256_cmp_ps(t, _mm256_set1_ps(tmin), _CMP_GE_OQ),
-                                          _mm256_cmp_ps(t, _mm256_set1_ps(tmax), _CMP_LE_OQ));
-    _mm256_store_ps(t_out, t);
-    _mm256_store_ps(u_out, _mm256_mul_ps(v, inv_det));
-    _mm256_store_ps(v_out, _mm256_mul_ps(e, inv_det));
-    return static_cast<unsigned>(_mm256_movemask_ps(_mm256_andnot_ps(outside, in_range)));
+    const auto load = [&](int vertex, int axis) { return _mm256_load_ps(b.v[3 * vertex + axis]); };
+    return test8.test(load, (1u << kBlockWidth) - 1, tmin, tmax, t_out, u_out, v_out, scalar);
+  }
 #else
-    (void)b, (void)tmin, (void)tmax, (void)t_out, (void)u_out, (void)v_out;
+  explicit WatertightBlock(const WatertightRay&) {}
+  unsigned test(const TriangleBlock&, float, float, float*, float*, float*,
+                unsigned& scalar) const {
     scalar = (1u << kBlockWidth) - 1;
     return 0;
-#endif
   }
+#endif
 };
 
 // One query's traversal, in one loop whose state (current entry, stack, closest hit) lives in

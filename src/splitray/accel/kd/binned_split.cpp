@@ -7,8 +7,8 @@
 #include <limits>
 #include <vector>
 
-#include "splitray/accel/kd/binned_clip.hpp"
 #include "splitray/accel/kd/golden_search.hpp"  // KdAxisCost
+#include "splitray/accel/triangle_clip.hpp"
 
 namespace splitray {
 

@@ -6,7 +6,7 @@
 #include <bit>
 #include <vector>
 
-#include "splitray/accel/kd/binned_clip.hpp"
+#include "splitray/accel/triangle_clip.hpp"
 #include "splitray/core/parallel.hpp"
 
 namespace splitray {

@@ -3,14 +3,17 @@
 // Why it never loses the closest hit: every leaf test uses the watertight triangle test with
 // [ray.tmin, best t], so whatever a leaf reports is what brute computes for that triangle, and
 // the answer is the smallest (t, id) among the triangles tested. It is brute's answer as long
-// as no triangle that could beat it is skipped. Three kinds of rounding could skip one: when
-// the ray is clipped against split planes (and rays in or parallel to a plane), when the
-// builder clipped a triangle to a cell (perfect splits may miss a cell the triangle reaches
-// by an ulp), and in the triangle test's t, which may place a hit slightly before the cell it
-// lies in. So every cell is widened by `delta` in space and its t-range by `delta / max|dir|`
-// (delta = 2^-18 of the scale of the scene and the ray: far above float rounding, far below
-// any cell that matters for speed), and a far cell is skipped only when its widened entry t
-// exceeds the best t (strictly: on equal t a smaller id may wait there).
+// as no triangle that could beat it is skipped. Every leaf holds each triangle that reaches
+// its cell: the builders' perfect-split clipping is conservative (accel/triangle_clip.hpp),
+// which no margin here could make up for, since half an ulp across a plane nearly parallel
+// to a triangle moves its crossing far along the plane. What is left is rounding in the
+// traversal and in the triangle test: when the ray is clipped against split planes (and rays
+// in or parallel to a plane), and in the test's t, which may place a hit slightly outside the
+// cell it lies in (never far: the test decides slivers and degenerate triangles in double,
+// core/triangle.hpp). So every cell is widened by `delta` in space and its t-range by
+// `delta / max|dir|` (delta = 2^-18 of the scale of the scene and the ray: far above float
+// rounding, far below any cell that matters for speed), and a far cell is skipped only when
+// its widened entry t exceeds the best t (strictly: on equal t a smaller id may wait there).
 #include <algorithm>
 #include <cmath>
 #include <limits>

@@ -13,10 +13,10 @@
 #include <atomic>
 #include <limits>
 
-#include "splitray/accel/kd/clip.hpp"
 #include "splitray/accel/kd/kd_build.hpp"
 #include "splitray/accel/kd/kd_emit.hpp"
 #include "splitray/accel/kd/kd_sah.hpp"
+#include "splitray/accel/triangle_clip.hpp"
 #include "splitray/core/errors.hpp"
 
 namespace splitray {
