@@ -18,36 +18,35 @@ splitray=build/apps/splitray/splitray
 for command in render build trace knn animate view train bench "bench build-trace" "bench knn" "bench hybrid" "bench neural"; do "$splitray" $command --help > /dev/null; done
 "$splitray" build data/horse/horse.obj.gz --accel kd
 
-# kd and brute must find the same closest hits: compare hits and id_checksum.
+# kd and brute must find the same closest hits: compare hits and id_checksum of two `trace
+# --json` outputs (what: the case, for the message).
 field() { sed -n "s/^ *\"$1\": \([^,]*\),\?$/\1/p"; }
-for kind in primary random; do
-  kd=$("$splitray" trace data/horse/horse.obj.gz --accel kd --kind "$kind" --rays 20000 --json)
-  brute=$("$splitray" trace data/horse/horse.obj.gz --accel brute --kind "$kind" --rays 20000 --json)
+same_hits() {
+  local what=$1 kd=$2 brute=$3 key a b
   for key in hits id_checksum; do
     a=$(field "$key" <<< "$kd")
     b=$(field "$key" <<< "$brute")
     if [[ -z "$a" || "$a" != "$b" ]]; then
-      echo "FAILED: trace --kind $kind: kd $key=$a, brute $key=$b" >&2
+      echo "FAILED: $what: kd $key=$a, brute $key=$b" >&2
       exit 1
     fi
   done
+}
+for kind in primary random; do
+  kd=$("$splitray" trace data/horse/horse.obj.gz --accel kd --kind "$kind" --rays 20000 --json)
+  brute=$("$splitray" trace data/horse/horse.obj.gz --accel brute --kind "$kind" --rays 20000 --json)
+  same_hits "trace --kind $kind" "$kd" "$brute"
   echo "trace --kind $kind: kd and brute agree (hits $(field hits <<< "$kd"), id_checksum $(field id_checksum <<< "$kd"))"
 done
 
 # The ten Sponza triangles that float clipping lost (data/regress_kd_clip/SOURCE.md): every kd
 # builder agrees with brute force on a million random rays.
 fixture=data/regress_kd_clip/kd_clip_10tris.obj
-brute=$("$splitray" trace "$fixture" --accel brute --kind random --rays 1000000 --seed 1 --json)
+rays=(--kind random --rays 1000000 --seed 1 --json)
+brute=$("$splitray" trace "$fixture" --accel brute "${rays[@]}")
 for builder in sah golden binned; do
-  kd=$("$splitray" trace "$fixture" --accel kd --builder "$builder" --kind random --rays 1000000 --seed 1 --json)
-  for key in hits id_checksum; do
-    a=$(field "$key" <<< "$kd")
-    b=$(field "$key" <<< "$brute")
-    if [[ -z "$a" || "$a" != "$b" ]]; then
-      echo "FAILED: trace $fixture --builder $builder: kd $key=$a, brute $key=$b" >&2
-      exit 1
-    fi
-  done
+  kd=$("$splitray" trace "$fixture" --accel kd --builder "$builder" "${rays[@]}")
+  same_hits "trace $fixture --builder $builder" "$kd" "$brute"
 done
 echo "trace $fixture: every kd builder agrees with brute on 10^6 random rays (hits $(field hits <<< "$brute"))"
 

@@ -422,7 +422,7 @@ TEST(KdAccel, StatisticsDescribeTheTree) {
 
 // An independent O(n^2)-per-node SAH builder with the same policy as build_kd_sah (each
 // triangle keeps the clipped bounds it had; only triangles cut by a plane are clipped to the
-// child cells; planar triangles tried on both sides; ties go to the first candidate in the
+// child cells (accel/triangle_clip.hpp); planar triangles tried on both sides; ties go to the first candidate in the
 // order axis, position, below before above). Its tree must equal the event sweep's exactly.
 class NaiveSahBuilder {
  public:
@@ -497,8 +497,10 @@ class NaiveSahBuilder {
       else if (go_above)
         above.push_back(item);
       else {
-        below.push_back({item.id, clip_triangle_bounds(triangles_[item.id], below_box)});
-        above.push_back({item.id, clip_triangle_bounds(triangles_[item.id], above_box)});
+        Aabb b, a;
+        clip_triangle_split(triangles_[item.id], box, best_axis, best_pos, b, a);
+        below.push_back({item.id, b});
+        above.push_back({item.id, a});
       }
     }
     node->axis = best_axis;

@@ -39,8 +39,11 @@ namespace clip_detail {
 
 struct ClipVertex {
   double p[3];
-  double err[3];       // |exact - p[j]| <= err[j]; 0 on a plane the vertex was made on
+  float err[3];        // |exact - p[j]| <= err[j]; 0 where p[j] is exact (a triangle vertex,
+                       // a plane it was made on); rounded up: a bound needs no more precision
   std::uint8_t edges;  // bit e: lies on the triangle's edge e (vertex e to vertex e + 1)
+
+  float e(int j) const { return err[j]; }
 };
 
 // A convex polygon gains at most one vertex per plane; the vertices counted inside by their
@@ -48,14 +51,52 @@ struct ClipVertex {
 inline constexpr int kCapacity = 32;
 using Polygon = std::array<ClipVertex, kCapacity>;
 
-// The triangle in double, and its plane (n . x = n . v0) with bounds on the normal's errors.
+// The float after f toward +inf (f finite), without a library call: the builders' hot path.
+inline float float_up(float f) {
+  const auto bits = std::bit_cast<std::uint32_t>(f);
+  if (bits == 0x80000000u) return std::bit_cast<float>(1u);  // -0: the least positive float
+  return std::bit_cast<float>((bits >> 31) ? bits - 1 : bits + 1);
+}
+inline float float_down(float f) { return -float_up(-f); }
+
+// The largest float <= x and the smallest float >= x.
+inline float float_below(double x) {
+  const float f = static_cast<float>(x);
+  return static_cast<double>(f) <= x ? f : float_down(f);
+}
+inline float float_above(double x) {
+  const float f = static_cast<float>(x);
+  return static_cast<double>(f) >= x ? f : float_up(f);
+}
+
+// The triangle in double, and its plane (n . x = n . v0) with bounds on the normal's errors,
+// made when a crossing first needs it (most clips never do).
 struct ClipTriangle {
   double v[3][3];
-  double n[3], n_err[3];
+  float edge_err[3][3];  // the error of coordinate j of a crossing on edge e: 0 where the
+                         // edge keeps it, else a bound on the rounding of its computation
+  mutable double n[3], n_err[3];
+  mutable bool has_plane = false;
 
   explicit ClipTriangle(const Triangle& t) {
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) v[i][j] = t.vertex(i)[j];
+    const Vec3 corners[3] = {t.v0, t.v1, t.v2};
+    double scale = 0;
+    for (int i = 0; i < 3; ++i) {
+      v[i][0] = corners[i].x, v[i][1] = corners[i].y, v[i][2] = corners[i].z;
+      scale = std::max({scale, std::fabs(v[i][0]), std::fabs(v[i][1]), std::fabs(v[i][2])});
+    }
+    // A few double roundings of values at most `scale` (t, then a + (b - a) t): 2^-49 of it
+    // bounds them with a wide margin.
+    const float rounding = float_above(scale * 0x1p-49);
+    for (int e = 0; e < 3; ++e) {
+      const double* a = v[e];
+      const double* b = v[e == 2 ? 0 : e + 1];
+      for (int j = 0; j < 3; ++j) edge_err[e][j] = a[j] == b[j] ? 0 : rounding;
+    }
+  }
+
+  void make_plane() const {
+    if (has_plane) return;
     double e1[3], e2[3];
     for (int j = 0; j < 3; ++j) e1[j] = v[1][j] - v[0][j], e2[j] = v[2][j] - v[0][j];
     for (int j = 0; j < 3; ++j) {
@@ -64,6 +105,7 @@ struct ClipTriangle {
       n[j] = p1 - p2;
       n_err[j] = (std::fabs(p1) + std::fabs(p2)) * 0x1p-50;
     }
+    has_plane = true;
   }
 
   ClipVertex vertex(int i) const {
@@ -73,29 +115,16 @@ struct ClipTriangle {
   }
 };
 
-// The largest float <= x and the smallest float >= x.
-inline float float_below(double x) {
-  const float f = static_cast<float>(x);
-  return static_cast<double>(f) <= x ? f
-                                     : std::nextafter(f, -std::numeric_limits<float>::infinity());
-}
-inline float float_above(double x) {
-  const float f = static_cast<float>(x);
-  return static_cast<double>(f) >= x ? f
-                                     : std::nextafter(f, std::numeric_limits<float>::infinity());
-}
-
-// Where the triangle's edge e meets `plane` on `axis`, from the edge's float endpoints.
+// Where the triangle's edge e meets `plane` on `axis`, from the edge's float endpoints (the
+// common case: kept short and inline).
 inline ClipVertex edge_crossing(const ClipTriangle& tri, int e, int axis, double plane) {
   const double* a = tri.v[e];
-  const double* b = tri.v[(e + 1) % 3];
-  const double t = (plane - a[axis]) / (b[axis] - a[axis]);
+  const double* b = tri.v[e == 2 ? 0 : e + 1];
+  const double t = std::clamp((plane - a[axis]) / (b[axis] - a[axis]), 0.0, 1.0);
   ClipVertex c;
-  for (int j = 0; j < 3; ++j) {
-    c.p[j] = std::clamp(a[j] + (b[j] - a[j]) * t, std::min(a[j], b[j]), std::max(a[j], b[j]));
-    c.err[j] = a[j] == b[j] ? 0 : (std::fabs(a[j]) + std::fabs(b[j])) * 0x1p-50;
-  }
+  for (int j = 0; j < 3; ++j) c.p[j] = a[j] + (b[j] - a[j]) * t;
   c.p[axis] = plane;
+  for (int j = 0; j < 3; ++j) c.err[j] = tri.edge_err[e][j];
   c.err[axis] = 0;
   c.edges = static_cast<std::uint8_t>(1u << e);
   return c;
@@ -104,8 +133,8 @@ inline ClipVertex edge_crossing(const ClipTriangle& tri, int e, int axis, double
 // The bounds on the segment a-b's coordinate j: where any point of it can be.
 inline void segment_extent(const ClipVertex& a, const ClipVertex& b, int j, double& lo,
                            double& hi) {
-  lo = std::min(a.p[j] - a.err[j], b.p[j] - b.err[j]);
-  hi = std::max(a.p[j] + a.err[j], b.p[j] + b.err[j]);
+  lo = std::min(a.p[j] - a.e(j), b.p[j] - b.e(j));
+  hi = std::max(a.p[j] + a.e(j), b.p[j] + b.e(j));
 }
 
 // Where the segment a-b, which lies in the plane x[m] = a.p[m] (exactly: both are on it),
@@ -122,6 +151,7 @@ inline ClipVertex line_crossing(const ClipTriangle& tri, const ClipVertex& a, co
   c.edges = 0;
   double lo, hi;
   segment_extent(a, b, j, lo, hi);
+  tri.make_plane();
   const double dm = c.p[m] - tri.v[0][m], dk = plane - tri.v[0][axis];
   const double num = tri.n[m] * dm + tri.n[axis] * dk;
   const double num_err = tri.n_err[m] * std::fabs(dm) + tri.n_err[axis] * std::fabs(dk) +
@@ -137,15 +167,15 @@ inline ClipVertex line_crossing(const ClipTriangle& tri, const ClipVertex& a, co
       // its error, so the true crossing lies on a neighbouring segment, between vertices that
       // are kept; this one may stand at that endpoint.
       const ClipVertex& near = x + err < lo ? (a.p[j] < b.p[j] ? a : b) : (a.p[j] > b.p[j] ? a : b);
-      lo = near.p[j] - near.err[j];
-      hi = near.p[j] + near.err[j];
+      lo = near.p[j] - near.e(j);
+      hi = near.p[j] + near.e(j);
     } else {
       lo = std::max(lo, x - err);
       hi = std::min(hi, x + err);
     }
   }
   c.p[j] = 0.5 * (lo + hi);
-  c.err[j] = 0.5 * (hi - lo) + std::fabs(c.p[j]) * 0x1p-52;
+  c.err[j] = float_above(0.5 * (hi - lo) + std::fabs(c.p[j]) * 0x1p-52);
   return c;
 }
 
@@ -161,10 +191,15 @@ inline ClipVertex segment_crossing(const ClipVertex& a, const ClipVertex& b, int
   ClipVertex c;
   for (int j = 0; j < 3; ++j) {
     const double d = b.p[j] - a.p[j];
+    const double along = std::max(a.err[j], b.err[j]);
+    if (d == 0) {  // kept (exactly, where both ends are: a plane the segment lies in)
+      c.p[j] = a.p[j];
+      c.err[j] = static_cast<float>(along);
+      continue;
+    }
     c.p[j] = a.p[j] + d * t;
-    const double moved = d != 0 && slide > 0 ? std::min(std::fabs(d) * slide, std::fabs(d)) : 0;
-    c.err[j] =
-        std::max(a.err[j], b.err[j]) + moved + (std::fabs(a.p[j]) + std::fabs(b.p[j])) * 0x1p-50;
+    const double moved = slide > 0 ? std::min(std::fabs(d) * slide, std::fabs(d)) : 0;
+    c.err[j] = float_above(along + moved + (std::fabs(a.p[j]) + std::fabs(b.p[j])) * 0x1p-50);
   }
   c.p[axis] = plane;
   c.err[axis] = 0;
@@ -172,16 +207,24 @@ inline ClipVertex segment_crossing(const ClipVertex& a, const ClipVertex& b, int
   return c;
 }
 
-inline ClipVertex crossing(const ClipTriangle& tri, const ClipVertex& a, const ClipVertex& b,
-                           int axis, double plane) {
-  if (const unsigned shared = a.edges & b.edges) {
-    const int e = std::countr_zero(shared);
-    if (tri.v[e][axis] != tri.v[(e + 1) % 3][axis]) return edge_crossing(tri, e, axis, plane);
-  }
+// A segment that is not part of a triangle edge: in a plane of the box, or (degenerate input)
+// neither.
+[[gnu::noinline]] inline ClipVertex other_crossing(const ClipTriangle& tri, const ClipVertex& a,
+                                                   const ClipVertex& b, int axis, double plane) {
   for (int m = 0; m < 3; ++m)
     if (m != axis && a.err[m] == 0 && b.err[m] == 0 && a.p[m] == b.p[m])
       return line_crossing(tri, a, b, m, axis, plane);
   return segment_crossing(a, b, axis, plane);
+}
+
+inline ClipVertex crossing(const ClipTriangle& tri, const ClipVertex& a, const ClipVertex& b,
+                           int axis, double plane) {
+  if (const unsigned shared = a.edges & b.edges) {
+    const int e = std::countr_zero(shared);
+    if (tri.v[e][axis] != tri.v[e == 2 ? 0 : e + 1][axis])
+      return edge_crossing(tri, e, axis, plane);
+  }
+  return other_crossing(tri, a, b, axis, plane);
 }
 
 // One Sutherland-Hodgman step: the part of `in` on the side of `plane` (on `axis`) that is kept
@@ -190,7 +233,7 @@ inline ClipVertex crossing(const ClipTriangle& tri, const ClipVertex& a, const C
 inline int clip_step(const ClipTriangle& tri, const ClipVertex* in, int n, int axis, double plane,
                      bool keep_above, ClipVertex* out) {
   const auto inside = [&](const ClipVertex& v) {
-    return keep_above ? v.p[axis] + v.err[axis] >= plane : v.p[axis] - v.err[axis] <= plane;
+    return keep_above ? v.p[axis] + v.e(axis) >= plane : v.p[axis] - v.e(axis) <= plane;
   };
   int count = 0;
   bool in_a = inside(in[0]);
@@ -229,25 +272,66 @@ inline int clip_to_box(const ClipTriangle& tri, const Aabb& tri_bounds, const Aa
   return count;
 }
 
+// The float box of [lo, hi] (rounded outward), cut to `limit`; empty when nothing of it is
+// inside `limit`. Written axis by axis: the builders' hot path.
+inline Aabb rounded_bounds(const double lo[3], const double hi[3], const Aabb& limit) {
+  const Aabb r{{std::max(float_below(lo[0]), limit.lo.x), std::max(float_below(lo[1]), limit.lo.y),
+                std::max(float_below(lo[2]), limit.lo.z)},
+               {std::min(float_above(hi[0]), limit.hi.x), std::min(float_above(hi[1]), limit.hi.y),
+                std::min(float_above(hi[2]), limit.hi.z)}};
+  return r.empty() ? Aabb{} : r;
+}
+
 // The float box holding every vertex with its errors, cut to `limit`; empty when nothing is
 // left of it inside `limit`.
 inline Aabb widened_bounds(const ClipVertex* v, int n, const Aabb& limit) {
   double lo[3], hi[3];
   for (int j = 0; j < 3; ++j) {
-    lo[j] = v[0].p[j] - v[0].err[j];
-    hi[j] = v[0].p[j] + v[0].err[j];
+    lo[j] = v[0].p[j] - v[0].e(j);
+    hi[j] = v[0].p[j] + v[0].e(j);
   }
   for (int i = 1; i < n; ++i)
     for (int j = 0; j < 3; ++j) {
-      lo[j] = std::min(lo[j], v[i].p[j] - v[i].err[j]);
-      hi[j] = std::max(hi[j], v[i].p[j] + v[i].err[j]);
+      lo[j] = std::min(lo[j], v[i].p[j] - v[i].e(j));
+      hi[j] = std::max(hi[j], v[i].p[j] + v[i].e(j));
     }
-  Aabb b;
-  for (int j = 0; j < 3; ++j) {
-    b.lo[j] = std::max(float_below(lo[j]), limit.lo[j]);
-    b.hi[j] = std::min(float_above(hi[j]), limit.hi[j]);
+  return rounded_bounds(lo, hi, limit);
+}
+
+// Both sides' bounds of the polygon `poly` cut at `position` on `axis` in one pass (a crossing
+// made once serves both sides), each cut to its limit: the vertices clip_step would keep on
+// each side, so the same bounds as clipping twice; empty for a side the polygon misses.
+inline void split_polygon(const ClipTriangle& tri, const ClipVertex* poly, int n, int axis,
+                          double position, const Aabb& below_limit, const Aabb& above_limit,
+                          Aabb& below, Aabb& above) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  double lo[2][3] = {{kInf, kInf, kInf}, {kInf, kInf, kInf}};
+  double hi[2][3] = {{-kInf, -kInf, -kInf}, {-kInf, -kInf, -kInf}};
+  const auto extend = [&](int side, const ClipVertex& v) {
+    for (int j = 0; j < 3; ++j) {
+      lo[side][j] = std::min(lo[side][j], v.p[j] - v.e(j));
+      hi[side][j] = std::max(hi[side][j], v.p[j] + v.e(j));
+    }
+  };
+  const auto on_below = [&](const ClipVertex& v) { return v.p[axis] - v.e(axis) <= position; };
+  const auto on_above = [&](const ClipVertex& v) { return v.p[axis] + v.e(axis) >= position; };
+  bool below_a = on_below(poly[0]), above_a = on_above(poly[0]);
+  for (int i = 0; i < n; ++i) {
+    const ClipVertex& a = poly[i];
+    const ClipVertex& b = poly[i + 1 == n ? 0 : i + 1];
+    const bool below_b = on_below(b), above_b = on_above(b);
+    if (below_a) extend(0, a);
+    if (above_a) extend(1, a);
+    if (below_a != below_b || above_a != above_b) {
+      const ClipVertex c = crossing(tri, a, b, axis, position);
+      if (below_a != below_b) extend(0, c);
+      if (above_a != above_b) extend(1, c);
+    }
+    below_a = below_b;
+    above_a = above_b;
   }
-  return b;
+  below = lo[0][0] <= hi[0][0] ? rounded_bounds(lo[0], hi[0], below_limit) : Aabb{};
+  above = lo[1][0] <= hi[1][0] ? rounded_bounds(lo[1], hi[1], above_limit) : Aabb{};
 }
 
 }  // namespace clip_detail
@@ -271,8 +355,8 @@ inline Aabb clip_triangle_bounds(const Triangle& triangle, const Aabb& box) {
 
 // Both children's clipped bounds of a triangle that straddles the plane `position` on `axis`
 // of `cell` (the kd builders' straddlers): the polygon triangle ∩ cell is clipped once, then
-// at the plane for each side. A side left empty falls back to the triangle's bounds ∩ that
-// child cell, as clip_triangle_bounds does.
+// split at the plane. A side left empty falls back to the triangle's bounds ∩ that child
+// cell, as clip_triangle_bounds does.
 inline void clip_triangle_split(const Triangle& triangle, const Aabb& cell, int axis,
                                 float position, Aabb& below, Aabb& above) {
   using namespace clip_detail;
@@ -285,19 +369,13 @@ inline void clip_triangle_split(const Triangle& triangle, const Aabb& cell, int 
   below = below_limit;
   above = above_limit;
   const ClipTriangle tri(triangle);
-  Polygon poly, side;
+  Polygon poly;
   const int count = clip_to_box(tri, bounds, cell, poly);
   if (count <= 0) return;
-  const int n_below = clip_step(tri, poly.data(), count, axis, position, false, side.data());
-  if (n_below > 0) {
-    const Aabb b = widened_bounds(side.data(), n_below, below_limit);
-    if (!b.empty()) below = b;
-  }
-  const int n_above = clip_step(tri, poly.data(), count, axis, position, true, side.data());
-  if (n_above > 0) {
-    const Aabb a = widened_bounds(side.data(), n_above, above_limit);
-    if (!a.empty()) above = a;
-  }
+  Aabb b, a;
+  split_polygon(tri, poly.data(), count, axis, position, below_limit, above_limit, b, a);
+  if (!b.empty()) below = b;
+  if (!a.empty()) above = a;
 }
 
 // The SBVH's split of a reference at a plane: the bounds of the triangle's part on each side
@@ -313,17 +391,8 @@ inline void split_triangle_bounds(const Triangle& triangle, const Aabb& box, int
   left_limit = intersection(left_limit, bounds);
   right_limit = intersection(right_limit, bounds);
   const ClipTriangle tri(triangle);
-  Polygon poly, side;
-  for (int i = 0; i < 3; ++i) poly[i] = tri.vertex(i);
-  const auto side_bounds = [&](bool keep_above, const Aabb& limit) {
-    if (limit.empty()) return Aabb{};
-    const int n = clip_step(tri, poly.data(), 3, axis, position, keep_above, side.data());
-    if (n < 0) return limit;
-    const Aabb b = n == 0 ? Aabb{} : widened_bounds(side.data(), n, limit);
-    return b.empty() ? Aabb{} : b;
-  };
-  left = side_bounds(false, left_limit);
-  right = side_bounds(true, right_limit);
+  const ClipVertex poly[3] = {tri.vertex(0), tri.vertex(1), tri.vertex(2)};
+  split_polygon(tri, poly, 3, axis, position, left_limit, right_limit, left, right);
 }
 
 }  // namespace splitray

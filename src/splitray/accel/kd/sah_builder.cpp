@@ -282,9 +282,10 @@ class SahBuilder {
       scratch.fresh_above[axis].clear();
     }
     for (const std::uint32_t i : straddling) {
-      const Triangle& tri = triangles_[node.tris[i]];
-      add_events(clip_triangle_bounds(tri, below.box), below_index[i], scratch.fresh_below);
-      add_events(clip_triangle_bounds(tri, above.box), above_index[i], scratch.fresh_above);
+      Aabb b, a;
+      clip_triangle_split(triangles_[node.tris[i]], node.box, split.axis, split.pos, b, a);
+      add_events(b, below_index[i], scratch.fresh_below);
+      add_events(a, above_index[i], scratch.fresh_above);
     }
     for (int axis = 0; axis < 3; ++axis) {
       std::sort(scratch.fresh_below[axis].begin(), scratch.fresh_below[axis].end());
