@@ -236,7 +236,7 @@ json run_hybrid_bench_report(const HybridBenchOptions& o) {
   ho.blur_kernel = o.blur_kernel;
   ho.shadow_map_size = o.shadow_map_size;
   progress("building " + o.accel + " and uploading the scene to " + renderer_name + " ...");
-  HybridRenderer hybrid(scene, ho);
+  HybridRenderer hybrid(scene, ho, camera);
   const AccelStats stats = hybrid.accel_stats();
 
   // Frame time = wall time of `frames` frames / frames, after one warm-up frame.
@@ -284,8 +284,8 @@ json run_hybrid_bench_report(const HybridBenchOptions& o) {
   progress("shadow states against ray-traced shadows ...");
   const FlatScene flat = flatten(scene);
   const auto exact_accel = make_accel(o.accel, flat.triangles, wo.build);
-  const gl::CpuPass exact(scene, flat, *exact_accel, 0);
-  const std::size_t lights = scene.lights.size();
+  const gl::CpuPass exact(scene, flat, hybrid.lights(), *exact_accel, 0);
+  const std::size_t lights = hybrid.lights().size();
   Image errors = frame.image;
   for (Vec3& p : errors.pixels) p = p * 0.25f;
   std::vector<std::array<std::uint64_t, 3>> rows(static_cast<std::size_t>(height));

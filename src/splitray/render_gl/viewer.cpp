@@ -193,7 +193,9 @@ void run_viewer(const Scene& scene, const ViewerOptions& options) {
   const std::string renderer_name = gl::renderer_name();
   ThreadLimit limit(ho.build.threads);
 
-  HybridRenderer renderer(scene, ho);
+  const Camera start = options.camera ? *options.camera
+                                      : (scene.camera ? *scene.camera : Camera::frame(scene.bounds()));
+  HybridRenderer renderer(scene, ho, start);
   const std::size_t triangles = renderer.accel_stats().prims;
   gl::Overlay overlay;
   const gl::Program present("fullscreen.vert.glsl", "present.frag.glsl");
@@ -201,8 +203,6 @@ void run_viewer(const Scene& scene, const ViewerOptions& options) {
   glCreateVertexArrays(1, &empty_vao);
   glProgramUniform1i(present.id(), present.uniform("u_image"), 0);
 
-  const Camera start = options.camera ? *options.camera
-                                      : (scene.camera ? *scene.camera : Camera::frame(scene.bounds()));
   Controls controls(start, length(scene.bounds().extent()));
   glfwSetWindowUserPointer(window.get(), &controls);
   install_callbacks(window.get());
