@@ -7,6 +7,8 @@
 #include <CLI/CLI.hpp>
 #include <cstdint>
 #include <nlohmann/json.hpp>
+
+#include "json_output.hpp"
 #include <string>
 #include <vector>
 
@@ -25,7 +27,8 @@ struct BuildTraceOptions {
   // SAH constants of the kd builds (and of every tree's reported SAH cost).
   float traversal_cost = BuildConfig{}.traversal_cost;
   float intersection_cost = BuildConfig{}.intersection_cost;
-  std::string json_path, markdown_path;
+  cli::JsonOutput json;
+  std::string markdown_path;
   std::string plot_path;  // PNG of the ratios to Embree (scripts/plot_build_trace.py)
 };
 

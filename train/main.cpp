@@ -8,7 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "../apps/splitray/progress.hpp"
+#include "progress.hpp"
 #include "evaluate.hpp"
 #include "loss_report.hpp"
 #include "splitray/core/errors.hpp"
@@ -121,7 +121,7 @@ int run(int argc, char** argv) {
     throw Error("--out", "folder " + out_path.parent_path().string() + " does not exist");
   const std::string stem = stem_of(out);
 
-  app::ProgressBar bar("train");
+  cli::ProgressBar bar("train");
   bar.status("building the training sets");
   const std::vector<TrainSet> sets = build_training_sets(data, d);
   if (!quiet)

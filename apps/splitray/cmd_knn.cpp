@@ -9,6 +9,7 @@
 #include <optional>
 
 #include "commands.hpp"
+#include "json_output.hpp"
 #include "options.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/core/parallel.hpp"
@@ -29,7 +30,7 @@ struct KnnCommand {
   std::size_t samples = 1000000;
   NeighborIndexConfig index;
   int threads = 0;
-  bool json = false;
+  cli::JsonOutput json;
 };
 
 void run(const KnnCommand& command) {
@@ -59,7 +60,7 @@ void run(const KnnCommand& command) {
   const double ms = query_timer.ms();
   const double queries_per_s = ms > 0 ? static_cast<double>(queries.size()) / (ms / 1000) : 0.0;
 
-  if (command.json) {
+  if (command.json.wanted()) {
     nlohmann::ordered_json object;
     object["points"] = input.points.size();
     object["queries"] = queries.size();
@@ -93,8 +94,8 @@ void run(const KnnCommand& command) {
         object["top_depth"] = stats.top_depth;
       }
     }
-    print_json(object);
-    return;
+    cli::emit_json(command.json, object);
+    if (command.json.print) return;
   }
   fmt::print("splitray knn: {} over {} ({} points{})\n", index->name(), command.input,
              input.points.size(), input.mesh ? ", surface samples" : "");
@@ -160,9 +161,9 @@ void add_knn_command(CLI::App& app) {
                   "VVH/SAH cell expansion (0: --radius, else 1e-4 of the bounding-box diagonal)");
   sub->add_option("--threads", command->threads, "Worker threads (0 = all cores)")
       ->check(CLI::NonNegativeNumber);
-  sub->add_flag(
-      "--json", command->json,
-      "Print one JSON object: points, queries, k (null for --radius), build_ms, ms, "
+  cli::add_json_options(
+      *sub, command->json,
+      "points, queries, k (null for --radius), build_ms, ms, "
       "queries_per_s, neighbor_checksum, dist_sum, mean_dist, builder, radius (with "
       "--radius), neighbors, input, sampled, seed, leaf_size, threads, load_ms, and for "
       "our trees vvh_radius, vvh_cost, nodes, leaves, max_depth, bytes (and inference_ms, "

@@ -9,6 +9,7 @@
 #include <optional>
 
 #include "commands.hpp"
+#include "json_output.hpp"
 #include "options.hpp"
 #include "splitray/core/parallel.hpp"
 #include "splitray/core/timer.hpp"
@@ -28,7 +29,7 @@ struct TraceCommand {
   bool any = false;
   bool single = false;  // time the single-ray calls (Embree: rtcIntersect1) instead of batched
   int repeat = 1;
-  bool json = false;
+  cli::JsonOutput json;
 };
 
 struct Totals {
@@ -100,7 +101,7 @@ void run(const TraceCommand& command) {
   const double mrays_per_cpu_s = cpu_ms > 0 ? rays.size() / (cpu_ms * 1e3) : 0.0;
   const int threads = effective_threads(command.accel.build.threads);
 
-  if (command.json) {
+  if (command.json.wanted()) {
     using Json = nlohmann::ordered_json;
     const Json sum_t = command.any ? Json(nullptr) : Json(totals.sum_t);
     const Json id_checksum = command.any ? Json(nullptr) : Json(totals.id_checksum);
@@ -130,8 +131,8 @@ void run(const TraceCommand& command) {
     if (camera) object["camera"] = command.camera;
     if (stats.inference_ms) object["inference_ms"] = *stats.inference_ms;  // --builder neural
     if (stats.top_depth) object["top_depth"] = *stats.top_depth;
-    print_json(object);
-    return;
+    cli::emit_json(command.json, object);
+    if (command.json.print) return;
   }
   fmt::print("splitray trace: {} on {}, {} {} rays (seed {}){}\n", structure_name(stats),
              command.mesh, rays.size(), command.kind, command.seed, command.any ? ", any hit" : "");
@@ -177,9 +178,9 @@ void add_trace_command(CLI::App& app) {
   sub->add_option("-r,--repeat", command->repeat,
                   "Trace the rays this many times and report the median time")
       ->check(CLI::Range(1, 1000));
-  sub->add_flag(
-      "--json", command->json,
-      "Print one JSON object: rays, hits, sum_t, id_checksum, ms, mrays_per_s, cpu_ms, "
+  cli::add_json_options(
+      *sub, command->json,
+      "rays, hits, sum_t, id_checksum, ms, mrays_per_s, cpu_ms, "
       "mrays_per_cpu_s, build_ms, "
       "accel, builder, prims, kind, seed, any, single, repeat, threads, mesh, load_ms, rays_ms");
   sub->callback([command] { run(*command); });

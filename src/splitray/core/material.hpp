@@ -3,6 +3,7 @@
 // render_gl's composite shader). How each file format's materials map onto it: io/materials.cpp
 // and the README's "Materials and textures".
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "splitray/core/texture.hpp"
@@ -19,6 +20,9 @@ struct Material {
   float transparency = 0;  // share of light refracted through the surface
   float ior = 1.5f;        // index of refraction inside the surface
   bool fresnel = false;    // weight reflection and refraction by Schlick's Fresnel term
+  // What the scene's ambient light reflects; without it the diffuse colour (the usual case:
+  // only BART's materials give one).
+  std::optional<Vec3> ambient;
   // Multiplies `diffuse` at the hit's texture coordinates (shared between materials that use
   // one image).
   std::shared_ptr<const Texture> diffuse_texture;

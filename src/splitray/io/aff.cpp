@@ -373,7 +373,7 @@ class Parser {
   void fill(Lexer& lex, bool extended) {
     Material m;
     if (extended) {
-      colour(lex, "ambient colour");
+      m.ambient = colour(lex, "ambient colour");
       m.diffuse = colour(lex, "diffuse colour");
       m.specular = colour(lex, "specular colour");
     } else {

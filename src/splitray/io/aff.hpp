@@ -8,8 +8,8 @@
 // view (v) moved along the key-framed path named "camera" when there is one (BART's
 // convention: its translation is the eye, its rotation turns the view direction -z and the
 // up vector +y), the lights (l, la: positions as given, colours, no fall-off, as NFF's),
-// materials (f: colour x Kd, Ks, Shine, T, index of refraction; fm: diffuse, specular, Shine,
-// T, index; ambient colours are not used), background (b) and ambient light (am). Textures
+// materials (f: colour x Kd, Ks, Shine, T, index of refraction; fm: ambient, diffuse,
+// specular, Shine, T, index), background (b) and ambient light (am). Textures
 // (tt, texturecoords) are not read. Every problem is an Error naming file and line.
 #include <cstddef>
 #include <memory>

@@ -61,7 +61,7 @@ class Tracer {
 
     const Vec3 above = p + ng * eps_, below = p - ng * eps_;
     const float share = diffuse_share(m);
-    Vec3 color = scene_.ambient * diffuse * share;
+    Vec3 color = scene_.ambient * m.ambient.value_or(diffuse) * share;
     for (const Light& light : lights_) {
       const LightSample s = sample_light(light, p);
       if (dot(ng, s.to_light) <= 0) continue;  // the surface itself faces away

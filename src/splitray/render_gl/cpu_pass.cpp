@@ -94,7 +94,7 @@ Vec3 CpuPass::trace(const Ray& ray, int depth, Trace& t) const {
 Vec3 CpuPass::shade(const Ray& ray, const Surface& s, int depth, Trace& t) const {
   const Material& m = *s.m;
   const float share = diffuse_share(m);
-  Vec3 color = scene_.ambient * s.diffuse * share;
+  Vec3 color = scene_.ambient * m.ambient.value_or(s.diffuse) * share;
   for (std::size_t i = 0; i < lights_.size(); ++i) {
     const Light& light = lights_[i];
     const LightSample ls = sample_light(light, s.p);

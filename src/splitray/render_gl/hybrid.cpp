@@ -33,6 +33,7 @@ struct Vertex {
 
 struct MaterialGpu {
   float diffuse_share[4], specular_shine[4], flags[4];  // flags: transparency, texture (-1 none)
+  float ambient[4];  // a = 1: the material's own ambient colour, 0: the diffuse colour
 };
 
 struct TextureGpu {
@@ -246,7 +247,9 @@ struct HybridRenderer::Impl {
       mats.push_back({{m.diffuse.x, m.diffuse.y, m.diffuse.z,
                        std::max(0.0f, 1.0f - m.reflectivity - m.transparency)},
                       {m.specular.x, m.specular.y, m.specular.z, m.shininess},
-                      {m.transparency, texture, 0, 0}});
+                      {m.transparency, texture, 0, 0},
+                      {m.ambient.value_or(Vec3{0}).x, m.ambient.value_or(Vec3{0}).y,
+                       m.ambient.value_or(Vec3{0}).z, m.ambient ? 1.0f : 0.0f}});
     }
     if (texture_info.empty()) texture_info.push_back({});  // buffers must not be empty
     if (texel_data.empty()) texel_data.push_back({});

@@ -22,7 +22,7 @@ namespace splitray {
 
 namespace {
 
-constexpr const char* kWhere = "splitray view";
+constexpr const char* kWhere = "view";
 
 std::string& glfw_message() {
   static std::string message;
@@ -193,9 +193,14 @@ void run_viewer(const Scene& scene, const ViewerOptions& options) {
   const std::string renderer_name = gl::renderer_name();
   ThreadLimit limit(ho.build.threads);
 
-  const Camera start = options.camera ? *options.camera
-                                      : (scene.camera ? *scene.camera : Camera::frame(scene.bounds()));
+  const Camera start = options.camera                  ? *options.camera
+                       : !options.frame_cameras.empty() ? options.frame_cameras.front()
+                       : scene.camera                   ? *scene.camera
+                                                        : Camera::frame(scene.bounds());
   HybridRenderer renderer(scene, ho, start);
+  if (const std::string warning = coverage_warning(renderer.coverage(start), renderer.lights().size());
+      !warning.empty())
+    std::fprintf(stderr, "splitray: warning: %s\n", warning.c_str());
   const std::size_t triangles = renderer.accel_stats().prims;
   gl::Overlay overlay;
   const gl::Program present("fullscreen.vert.glsl", "present.frag.glsl");
@@ -220,7 +225,7 @@ void run_viewer(const Scene& scene, const ViewerOptions& options) {
 
   const auto save = [&](const std::string& path) {
     if (last.image.pixels.empty()) return;
-    write_png(path, last.image);
+    write_image(path, last.image);
     std::printf("splitray view: saved %s (%d x %d)\n", path.c_str(), last.image.width, last.image.height);
     std::fflush(stdout);
   };
@@ -304,7 +309,9 @@ void run_viewer(const Scene& scene, const ViewerOptions& options) {
       });
       build_ms = build_timer.ms();
     }
-    const Camera camera = controls.moved ? controls.camera : controls.original;
+    const Camera camera = controls.moved                ? controls.camera
+                          : options.frame_cameras.empty() ? controls.original
+                                                          : options.frame_cameras[animation_frame];
     ++submitted;
     if (auto f = renderer.submit(camera)) show(std::move(*f));
     if (controls.screenshot) {

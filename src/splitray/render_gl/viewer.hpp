@@ -21,6 +21,9 @@ struct ViewerOptions {
   // Animation (`--frames`): one triangle soup per frame, same count and order; rebuilt every
   // frame by the kd builder predicted from the previous frames' splits.
   std::vector<std::vector<Triangle>> frames;
+  // The camera of each frame (BART's camera paths), followed until the user moves the camera;
+  // empty: the camera stays where the user puts it.
+  std::vector<Camera> frame_cameras;
   PredictorConfig predictor;
 };
 

@@ -20,7 +20,7 @@ void main() {
   float share = m.diffuse_share.a;
   vec3 diffuse = m.diffuse_share.rgb;
   if (m.flags.y >= 0.0) diffuse *= sample_texture(int(m.flags.y), v_uv);
-  vec3 color = u_ambient * diffuse * share;
+  vec3 color = u_ambient * (m.ambient.a > 0.0 ? m.ambient.rgb : diffuse) * share;
   vec4 visibility = texelFetch(u_visibility, c, 0);
   for (int i = 0; i < u_light_count; ++i) {
     vec3 l = to_light(i, v_world);
