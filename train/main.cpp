@@ -132,9 +132,11 @@ int run(int argc, char** argv) {
       [&](const EpochStats& e) {
         if (quiet) return;
         bar.finish();
-        fmt::print(stderr,
-                   "epoch {:3d}: loss {:.6f} (tree {:.6f}, bound {:.6f}), cost {:.4f}, {:.0f} s\n",
-                   e.epoch, e.loss, e.tree, e.bound, e.cost, e.seconds);
+        // Epoch 0 is the untrained network's evaluation, not a pass over the data.
+        const std::string name =
+            e.epoch == 0 ? "before training" : fmt::format("epoch {}/{}", e.epoch, t.epochs);
+        fmt::print(stderr, "{}: loss {:.6f} (tree {:.6f}, bound {:.6f}), cost {:.4f}, {:.0f} s\n",
+                   name, e.loss, e.tree, e.bound, e.cost, e.seconds);
       });
   bar.finish();
 
@@ -164,7 +166,11 @@ int run(int argc, char** argv) {
   model.metadata = meta.dump();
   write_neural_model(model, out);
   write_loss_csv(stem + ".loss.csv", result.epochs);
-  write_loss_png(stem + ".loss.png", result.epochs);
+  try {
+    write_loss_png(stem + ".loss.png", stem + ".loss.csv");
+  } catch (const Error& e) {  // the model is written: a missing plot is no reason to fail
+    fmt::print(stderr, "splitray-train: warning: no loss plot: {}\n", e.what());
+  }
 
   // Quality against a greedy top of the same depth, at inference's M, on fresh sets.
   DataOptions e = d;

@@ -38,6 +38,7 @@ int main(int argc, char** argv) {
   splitray::app::add_animate_command(app);
   splitray::app::add_view_command(app);
   splitray::app::add_train_command(app);
+  splitray::app::add_completion_command(app);
 
   try {
     // Name an unknown command rather than only saying that a command is required.

@@ -1,5 +1,6 @@
 #include "splitray/core/image.hpp"
 
+#include <Imath/half.h>
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfFrameBuffer.h>
 #include <OpenEXR/ImfHeader.h>
@@ -10,6 +11,7 @@
 #include <bit>
 #include <cctype>
 #include <cstring>
+#include <vector>
 
 #include <cmath>
 #include <cstdio>
@@ -99,11 +101,19 @@ void write_exr(const std::string& path, const Image& image, bool full_float) {
     for (const char* c : {"R", "G", "B"}) header.channels().insert(c, Imf::Channel(type));
     Imf::OutputFile file(tmp.c_str(), header);
     Imf::FrameBuffer buffer;
-    const auto base = reinterpret_cast<const char*>(image.pixels.data());
-    const std::size_t pixel = sizeof(Vec3), row = pixel * static_cast<std::size_t>(image.width);
-    for (int c = 0; c < 3; ++c)  // the float pixels, converted by OpenEXR where channels are half
+    std::vector<Imath::half> halves;  // the pixels rounded to half, when the channels are half
+    const char* base = reinterpret_cast<const char*>(image.pixels.data());
+    std::size_t pixel = sizeof(Vec3), component = sizeof(float);
+    if (!full_float) {
+      for (const Vec3& p : image.pixels) halves.insert(halves.end(), {p.x, p.y, p.z});
+      base = reinterpret_cast<const char*>(halves.data());
+      pixel = 3 * sizeof(Imath::half);
+      component = sizeof(Imath::half);
+    }
+    const std::size_t row = pixel * static_cast<std::size_t>(image.width);
+    for (int c = 0; c < 3; ++c)
       buffer.insert(std::string(1, "RGB"[c]),
-                    Imf::Slice(Imf::FLOAT, const_cast<char*>(base + c * sizeof(float)), pixel, row));
+                    Imf::Slice(type, const_cast<char*>(base + c * component), pixel, row));
     file.setFrameBuffer(buffer);
     file.writePixels(image.height);
   } catch (const std::exception& e) {

@@ -295,9 +295,19 @@ Mesh load_mesh(const std::string& path, const MeshLoadOptions& options) {
     if (has_own_materials(*scene)) {
       std::vector<std::string> ignored;
       const std::string folder = std::filesystem::path(path).parent_path().string();
-      mesh.materials = convert_materials(*scene, folder, path,
-                                         options.warnings ? *options.warnings : ignored);
+      const std::vector<Material> all = convert_materials(
+          *scene, folder, path, options.warnings ? *options.warnings : ignored);
+      // Only the materials faces use (assimp adds a stand-in first, files list unused ones),
+      // renumbered in order of first use.
       mesh.face_materials = merger.face_materials();
+      std::vector<std::uint32_t> index(all.size(), kInvalidId);
+      for (std::uint32_t& m : mesh.face_materials) {
+        if (index[m] == kInvalidId) {
+          index[m] = static_cast<std::uint32_t>(mesh.materials.size());
+          mesh.materials.push_back(all[m]);
+        }
+        m = index[m];
+      }
     }
   }
   mesh.validate(path);
