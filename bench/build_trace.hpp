@@ -7,11 +7,10 @@
 #include <CLI/CLI.hpp>
 #include <cstdint>
 #include <nlohmann/json.hpp>
-
-#include "json_output.hpp"
 #include <string>
 #include <vector>
 
+#include "json_output.hpp"
 #include "splitray/accel/accel.hpp"
 
 namespace splitray::bench {

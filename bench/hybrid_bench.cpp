@@ -1,7 +1,5 @@
 #include "hybrid_bench.hpp"
 
-#include "bench_report.hpp"
-
 #include <fmt/core.h>
 
 #include <algorithm>
@@ -12,6 +10,7 @@
 #include <sstream>
 
 #include "bench_meshes.hpp"
+#include "bench_report.hpp"
 #include "machine.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/core/image.hpp"

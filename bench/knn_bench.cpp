@@ -1,7 +1,5 @@
 #include "knn_bench.hpp"
 
-#include "bench_report.hpp"
-
 #include <fmt/core.h>
 #include <sys/resource.h>
 
@@ -11,6 +9,7 @@
 #include <map>
 
 #include "bench_meshes.hpp"
+#include "bench_report.hpp"
 #include "machine.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/core/image.hpp"

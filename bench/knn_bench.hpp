@@ -7,10 +7,10 @@
 #include <CLI/CLI.hpp>
 #include <cstdint>
 #include <nlohmann/json.hpp>
-
-#include "json_output.hpp"
 #include <string>
 #include <vector>
+
+#include "json_output.hpp"
 
 namespace splitray::bench {
 

@@ -1,7 +1,5 @@
 #include "neural_bench.hpp"
 
-#include "bench_report.hpp"
-
 #include <fmt/core.h>
 
 #include <algorithm>
@@ -14,6 +12,7 @@
 #include <sstream>
 
 #include "bench_meshes.hpp"
+#include "bench_report.hpp"
 #include "machine.hpp"
 #include "splitray/accel/accel.hpp"
 #include "splitray/accel/neural/model_path.hpp"
@@ -383,8 +382,9 @@ Json inference_scaling(const ModelInfo& sah, const ModelInfo& vvh, std::span<con
     std::string line = fmt::format("  inference at {} primitives:", n);
     for (const char* kind : {"triangles", "points"})
       if (row.contains(kind))
-        line += fmt::format(" {} {:.2f} ms (depth {})", kind, row[kind]["inference_ms"].get<double>(),
-                            row[kind]["top_depth"].get<int>());
+        line +=
+            fmt::format(" {} {:.2f} ms (depth {})", kind, row[kind]["inference_ms"].get<double>(),
+                        row[kind]["top_depth"].get<int>());
     fmt::print(stderr, "{}\n", line);
     rows.push_back(std::move(row));
   }

@@ -50,9 +50,8 @@ class CliConsistency : public ::testing::Test {
   Result run(const std::string& args, const std::string& prefix = "",
              const std::string& program = kBinary) const {
     const fs::path out = dir_ / "stdout.txt", err = dir_ / "stderr.txt";
-    const std::string command = prefix + quote(program) + " " + args + " > " +
-                                quote(out.string()) + " 2> " + quote(err.string()) +
-                                " < /dev/null";
+    const std::string command = prefix + quote(program) + " " + args + " > " + quote(out.string()) +
+                                " 2> " + quote(err.string()) + " < /dev/null";
     const int raw = std::system(command.c_str());
     Result r;
     if (raw != -1 && WIFEXITED(raw)) r.status = WEXITSTATUS(raw);
@@ -118,7 +117,8 @@ TEST_F(CliConsistency, ProgressInALogIsOneLinePerStep) {
 
 TEST_F(CliConsistency, OutputFormatByExtensionAndUnknownOnesFailBeforeAnyWork) {
   for (const char* name : {"a.png", "a.exr", "a.pfm"}) {
-    const Result r = run("render " + quote(horse()) + " -W 32 -H 24 -o " + quote((dir_ / name).string()));
+    const Result r =
+        run("render " + quote(horse()) + " -W 32 -H 24 -o " + quote((dir_ / name).string()));
     EXPECT_EQ(r.status, 0) << name << "\n" << r.err;
   }
   EXPECT_EQ(read_text(dir_ / "a.exr").substr(0, 4), std::string("\x76\x2f\x31\x01", 4));
@@ -150,10 +150,11 @@ TEST_F(CliConsistency, NpyRaysGiveTheLibrarysHits) {
   // Our .npy, turned by numpy into float64 in Fortran order (its writer, our reader).
   const fs::path ours = dir_ / "ours.npz", numpy = dir_ / "rays.npy", hits = dir_ / "hits.npz";
   write_npz(ours.string(), {{"rays", npy_array({rays.size(), 6}, values)}});
-  const std::string convert = "/usr/bin/python3 -c \"import numpy as np, sys; r = np.load(sys.argv[1])['rays']; "
-                              "assert r.dtype == np.float32 and r.shape == (2000, 6); "
-                              "np.save(sys.argv[2], np.asfortranarray(r.astype(np.float64)))\" " +
-                              quote(ours.string()) + " " + quote(numpy.string());
+  const std::string convert =
+      "/usr/bin/python3 -c \"import numpy as np, sys; r = np.load(sys.argv[1])['rays']; "
+      "assert r.dtype == np.float32 and r.shape == (2000, 6); "
+      "np.save(sys.argv[2], np.asfortranarray(r.astype(np.float64)))\" " +
+      quote(ours.string()) + " " + quote(numpy.string());
   ASSERT_EQ(std::system(convert.c_str()), 0);
   const Result r = run("trace " + quote(horse()) + " --rays-in " + quote(numpy.string()) +
                        " --hits-out " + quote(hits.string()) + " --json");
@@ -196,18 +197,21 @@ TEST_F(CliConsistency, NpyRaysGiveTheLibrarysHits) {
 TEST_F(CliConsistency, NpyQueriesGiveTheLibrarysNeighbours) {
   if (!has_numpy()) GTEST_SKIP() << "/usr/bin/python3 with numpy is absent";
   const fs::path points = dir_ / "points.npy", queries = dir_ / "q.npy", out = dir_ / "nn.npz";
-  const std::string make = "/usr/bin/python3 -c \"import numpy as np, sys; g = np.random.default_rng(3); "
-                           "np.save(sys.argv[1], g.uniform(-1, 1, (500, 3))); "
-                           "np.save(sys.argv[2], g.uniform(-1, 1, (40, 3)).astype(np.float32))\" " +
-                           quote(points.string()) + " " + quote(queries.string());
+  const std::string make =
+      "/usr/bin/python3 -c \"import numpy as np, sys; g = np.random.default_rng(3); "
+      "np.save(sys.argv[1], g.uniform(-1, 1, (500, 3))); "
+      "np.save(sys.argv[2], g.uniform(-1, 1, (40, 3)).astype(np.float32))\" " +
+      quote(points.string()) + " " + quote(queries.string());
   ASSERT_EQ(std::system(make.c_str()), 0);
-  const Result r = run("knn " + quote(points.string()) + " --queries-in " + quote(queries.string()) +
-                       " --out " + quote(out.string()) + " --k 4");
+  const Result r = run("knn " + quote(points.string()) + " --queries-in " +
+                       quote(queries.string()) + " --out " + quote(out.string()) + " --k 4");
   ASSERT_EQ(r.status, 0) << r.err;
   const FloatArray p = read_npy_floats(points.string()), q = read_npy_floats(queries.string());
   std::vector<Vec3> pv, qv;
-  for (std::size_t i = 0; i < p.values.size(); i += 3) pv.push_back({p.values[i], p.values[i + 1], p.values[i + 2]});
-  for (std::size_t i = 0; i < q.values.size(); i += 3) qv.push_back({q.values[i], q.values[i + 1], q.values[i + 2]});
+  for (std::size_t i = 0; i < p.values.size(); i += 3)
+    pv.push_back({p.values[i], p.values[i + 1], p.values[i + 2]});
+  for (std::size_t i = 0; i < q.values.size(); i += 3)
+    qv.push_back({q.values[i], q.values[i + 1], q.values[i + 2]});
   NeighborIndexConfig brute;
   brute.builder = "brute";
   const KnnResult expected = make_neighbor_index(pv, brute)->knn(qv, 4);
@@ -223,7 +227,9 @@ TEST_F(CliConsistency, NpyQueriesGiveTheLibrarysNeighbours) {
   }
   // More neighbours asked than points exist: -1 and inf pad the rows.
   ASSERT_EQ(run("knn " + quote(points.string()) + " --queries-in " + quote(queries.string()) +
-                " --out " + quote(out.string()) + " --k 502").status, 0);
+                " --out " + quote(out.string()) + " --k 502")
+                .status,
+            0);
   const auto padded = read_npz(out.string());
   const auto* row = reinterpret_cast<const std::int64_t*>(padded[0].second.bytes.data());
   EXPECT_GE(row[499], 0);  // 500 points: the rest of the 502 are padding
@@ -243,7 +249,9 @@ TEST_F(CliConsistency, AnimateRenderOfABartSceneFollowsItsCameraPath) {
   ASSERT_GT(a.size(), 1000u);
   EXPECT_NE(a, b);  // frame 1 is seen from further along the path
   // Frame 0 is `render` of the scene (its camera at the animation's start), pixel for pixel.
-  ASSERT_EQ(run("render " + quote(aff) + " -W 640 -H 480 -o " + quote((dir_ / "r.png").string())).status, 0);
+  ASSERT_EQ(
+      run("render " + quote(aff) + " -W 640 -H 480 -o " + quote((dir_ / "r.png").string())).status,
+      0);
   EXPECT_EQ(read_text(dir_ / "r.png"), a);
 }
 
@@ -253,9 +261,12 @@ TEST_F(CliConsistency, AnimateWithEmbreeWritesCsvPlotAndFrames) {
   SPLITRAY_REQUIRE_SHARED(first, "anim_horse_collapse/frames/horse-collapse-01.obj.gz");
   const std::string frames =
       quote((fs::path(first).parent_path() / "horse-collapse-%02d.obj.gz").string());
-  const Result r = run("animate " + frames + " --accel embree --builder refit --frames 3 --rays 2048 "
-                       "--csv " + quote((dir_ / "e.csv").string()) + " --plot " +
-                       quote((dir_ / "e.png").string()) + " --render " + quote((dir_ / "f").string()));
+  const Result r =
+      run("animate " + frames +
+          " --accel embree --builder refit --frames 3 --rays 2048 "
+          "--csv " +
+          quote((dir_ / "e.csv").string()) + " --plot " + quote((dir_ / "e.png").string()) +
+          " --render " + quote((dir_ / "f").string()));
   ASSERT_EQ(r.status, 0) << r.err;
   const std::string csv = read_text(dir_ / "e.csv");
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 4) << csv;  // header + 3 frames
@@ -266,8 +277,9 @@ TEST_F(CliConsistency, AnimateWithEmbreeWritesCsvPlotAndFrames) {
 }
 
 TEST_F(CliConsistency, BenchNeuralProgressIsTextNotJson) {
-  const Result r = run("bench neural --quick --json",
-                       "SPLITRAY_MODEL_DIR=" + quote((test::source_dir() / "models").string()) + " ");
+  const Result r =
+      run("bench neural --quick --json",
+          "SPLITRAY_MODEL_DIR=" + quote((test::source_dir() / "models").string()) + " ");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(r.err.find("{\""), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("speed x"), std::string::npos) << r.err;
@@ -282,8 +294,7 @@ TEST_F(CliConsistency, BenchHybridQuickDoesNotCallPresentDataAbsent) {
   const json report = json::parse(r.out);
   for (const json& note : report["notes"]) {
     const std::string text = note.get<std::string>();
-    if (!test::shared_data_dir().empty())
-      EXPECT_EQ(text.find("absent"), std::string::npos) << text;
+    if (!test::shared_data_dir().empty()) EXPECT_EQ(text.find("absent"), std::string::npos) << text;
   }
 }
 
@@ -302,8 +313,9 @@ TEST_F(CliConsistency, RenderHybridNamesItsRendererAndRatesTheCpusRays) {
 
 TEST_F(CliConsistency, RunDefaultTakesAnOutputFile) {
   const std::string script = (test::source_dir() / "scripts/run-default.sh").string();
-  const std::string env = "cd " + quote(dir_.string()) + " && SPLITRAY_NO_SETUP=1 SPLITRAY_BUILD_DIR=" +
-                          quote(SPLITRAY_BINARY_DIR) + " ";
+  const std::string env =
+      "cd " + quote(dir_.string()) +
+      " && SPLITRAY_NO_SETUP=1 SPLITRAY_BUILD_DIR=" + quote(SPLITRAY_BINARY_DIR) + " ";
   const Result r = run(quote(script) + " -o mine.png -W 48 -H 36", env, "bash");
   EXPECT_EQ(r.status, 0) << r.err;
   EXPECT_TRUE(fs::exists(dir_ / "mine.png")) << "relative to the folder it was run from";
@@ -311,7 +323,8 @@ TEST_F(CliConsistency, RunDefaultTakesAnOutputFile) {
 }
 
 TEST_F(CliConsistency, ErrorsNameTheCommandOnce) {
-  const Result r = run("view --exit-after 1 " + quote(horse()), "env -u DISPLAY -u WAYLAND_DISPLAY ");
+  const Result r =
+      run("view --exit-after 1 " + quote(horse()), "env -u DISPLAY -u WAYLAND_DISPLAY ");
   ASSERT_EQ(r.status, 1) << r.err;
   EXPECT_EQ(r.err.rfind("splitray: view: ", 0), 0u) << r.err;
   EXPECT_EQ(r.err.find("splitray: splitray"), std::string::npos) << r.err;
@@ -327,10 +340,11 @@ TEST_F(CliConsistency, VersionFlags) {
 
 TEST_F(CliConsistency, TrainingPrintsTheEpochsAskedAndPlotsWithAxes) {
   if (!fs::exists(kTrainer)) GTEST_SKIP() << "splitray-train is not built (no libtorch)";
-  const Result r = run("--cost vvh --depth 1 --samples 64 --train-samples 32 --pool 2000 --tree-depth 1 "
-                       "--lookahead 0 --rotations 0 --eval-sets 1 --epochs 2 --threads 1 --data " +
-                           quote(horse()) + " --out " + quote((dir_ / "m.bin").string()),
-                       "", kTrainer);
+  const Result r =
+      run("--cost vvh --depth 1 --samples 64 --train-samples 32 --pool 2000 --tree-depth 1 "
+          "--lookahead 0 --rotations 0 --eval-sets 1 --epochs 2 --threads 1 --data " +
+              quote(horse()) + " --out " + quote((dir_ / "m.bin").string()),
+          "", kTrainer);
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.err.find("epoch 1/2"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("epoch 2/2"), std::string::npos) << r.err;
@@ -340,7 +354,8 @@ TEST_F(CliConsistency, TrainingPrintsTheEpochsAskedAndPlotsWithAxes) {
   const std::string png = read_text(dir_ / "m.loss.png");
   ASSERT_GE(png.size(), 24u);
   const auto be32 = [&](std::size_t at) {
-    return (static_cast<unsigned char>(png[at]) << 24) | (static_cast<unsigned char>(png[at + 1]) << 16) |
+    return (static_cast<unsigned char>(png[at]) << 24) |
+           (static_cast<unsigned char>(png[at + 1]) << 16) |
            (static_cast<unsigned char>(png[at + 2]) << 8) | static_cast<unsigned char>(png[at + 3]);
   };
   EXPECT_EQ(be32(16), 800);
@@ -355,10 +370,11 @@ TEST_F(CliConsistency, ManPageAndBashCompletionAreBuilt) {
   EXPECT_NE(man.find(".TH SPLITRAY"), std::string::npos);
   EXPECT_NE(man.find("render"), std::string::npos);
   const std::string completion = SPLITRAY_BINARY_DIR "/apps/splitray/splitray.bash";
-  const std::string probe = "bash -c " + quote("source " + quote(completion) +
-                                                "; COMP_WORDS=(splitray ren); COMP_CWORD=1; _splitray; "
-                                                "echo ${COMPREPLY[@]}; COMP_WORDS=(splitray trace m --rays-i); "
-                                                "COMP_CWORD=3; _splitray; echo ${COMPREPLY[@]}");
+  const std::string probe =
+      "bash -c " + quote("source " + quote(completion) +
+                         "; COMP_WORDS=(splitray ren); COMP_CWORD=1; _splitray; "
+                         "echo ${COMPREPLY[@]}; COMP_WORDS=(splitray trace m --rays-i); "
+                         "COMP_CWORD=3; _splitray; echo ${COMPREPLY[@]}");
   const fs::path out = dir_ / "completion.txt";
   ASSERT_EQ(std::system((probe + " > " + quote(out.string())).c_str()), 0);
   EXPECT_EQ(read_text(out), "render\n--rays-in\n");

@@ -751,7 +751,7 @@ TEST_F(IoSceneFile, MatrixForms) {
 TEST_F(IoSceneFile, Defaults) {
   const Scene s = load_scene(scene(R"({"instances": [{"mesh": "cube.obj"}]})"));
   EXPECT_EQ(s.materials.size(), 1u);
-  EXPECT_TRUE(s.lights.empty());      // lights fitted to the view, as for a mesh file
+  EXPECT_TRUE(s.lights.empty());  // lights fitted to the view, as for a mesh file
   EXPECT_TRUE(s.lights_fit_view);
   EXPECT_TRUE(s.camera.has_value());  // framed around the scene
   const Scene dark = load_scene(scene(R"({"instances": [{"mesh": "cube.obj"}], "lights": []})"));

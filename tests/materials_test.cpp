@@ -92,7 +92,7 @@ TEST(Texture, BilinearBetweenTexelCentresAndWrapModes) {
   t.width = 2;
   t.height = 2;
   t.texels = {Vec3{0}, Vec3{1}, Vec3{2}, Vec3{3}};  // top row 0 1, bottom row 2 3
-  EXPECT_EQ(t.sample({0.25f, 0.75f}).x, 0);          // the top-left texel's centre
+  EXPECT_EQ(t.sample({0.25f, 0.75f}).x, 0);         // the top-left texel's centre
   EXPECT_EQ(t.sample({0.75f, 0.25f}).x, 3);
   EXPECT_FLOAT_EQ(t.sample({0.5f, 0.5f}).x, 1.5f);  // between all four
   EXPECT_FLOAT_EQ(t.sample({0.5f, 0.75f}).x, 0.5f);
@@ -158,7 +158,7 @@ map_Kd -clamp on missing.png
   const auto& ms = scene.meshes.at(0).materials;
   ASSERT_EQ(ms.size(), 4u);
   EXPECT_EQ(ms[0].diffuse, (Vec3{0.5f, 0.25f, 0.125f}));
-  EXPECT_EQ(ms[0].specular, Vec3{0});  // illum 1: no highlight
+  EXPECT_EQ(ms[0].specular, Vec3{0});   // illum 1: no highlight
   EXPECT_EQ(ms[1].reflectivity, 0.6f);  // illum 3: mirror of Ks's strength
   EXPECT_EQ(ms[1].specular, Vec3{0.6f});
   EXPECT_NEAR(ms[2].transparency, 0.8f, 1e-6f);  // d 0.2, refracting glass with Fresnel
@@ -181,8 +181,8 @@ map_Kd -clamp on missing.png
 }
 
 TEST(Materials, GltfMetallicRoughnessInPhong) {
-  nlohmann::json gltf = nlohmann::json::parse(
-      test::read_text(test::source_dir() / "tests/fixtures/quads.gltf"));
+  nlohmann::json gltf =
+      nlohmann::json::parse(test::read_text(test::source_dir() / "tests/fixtures/quads.gltf"));
   gltf["materials"] = {{{"name", "brass"},
                         {"pbrMetallicRoughness",
                          {{"baseColorFactor", {0.8, 0.4, 0.2, 1.0}},
@@ -206,8 +206,10 @@ TEST(Materials, JsonInstanceOverridesTheFilesMaterials) {
   const std::string spider = test::vendored_file("spider/spider.obj");
   write(dir / "scene.json",
         R"({"materials": [{"name": "red", "diffuse": [0.9, 0.1, 0.1]}],
-            "instances": [{"mesh": ")" + spider + R"(", "material": "red"},
-                          {"mesh": ")" + spider + R"(", "transform": {"translate": [100, 0, 0]}}]})");
+            "instances": [{"mesh": ")" +
+            spider + R"(", "material": "red"},
+                          {"mesh": ")" +
+            spider + R"(", "transform": {"translate": [100, 0, 0]}}]})");
   const Scene scene = load_scene((dir / "scene.json").string());
   const FlatScene flat = flatten(scene);
   const std::size_t half = flat.triangles.size() / 2;
@@ -359,7 +361,8 @@ TEST(ImageFiles, OpenExrRoundTripsThroughOpenExrsReader) {
   const Image image = hdr_image();
   write_image((dir / "float.exr").string(), image, {.exr_float = true});
   write_image((dir / "half.EXR").string(), image);
-  const Image full = read_exr((dir / "float.exr").string()), half = read_exr((dir / "half.EXR").string());
+  const Image full = read_exr((dir / "float.exr").string()),
+              half = read_exr((dir / "half.EXR").string());
   ASSERT_EQ(full.width, image.width);
   ASSERT_EQ(half.height, image.height);
   EXPECT_EQ(full.pixels, image.pixels);  // float: exact

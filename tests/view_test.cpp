@@ -179,7 +179,7 @@ TEST_F(ViewTest, NoDisplayIsAClearError) {
                               quote(scene.string()) + " -W 64 -H 48 --exit-after 1",
                           dir_);
   EXPECT_EQ(view.status, 1) << view.output;  // an error, not a crash
-  EXPECT_NE(view.output.find("splitray: splitray view: cannot open a window"), std::string::npos)
+  EXPECT_NE(view.output.find("splitray: view: cannot open a window"), std::string::npos)
       << view.output;
   EXPECT_NE(view.output.find("xvfb-run"), std::string::npos) << view.output;
 }

@@ -2,7 +2,6 @@
 
 #include <fmt/core.h>
 
-
 #include "splitray/core/image.hpp"
 #include "splitray/io/plot_script.hpp"
 

@@ -8,9 +8,9 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "progress.hpp"
 #include "evaluate.hpp"
 #include "loss_report.hpp"
+#include "progress.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/core/image.hpp"
 #include "train_data.hpp"

@@ -4,7 +4,6 @@
 // object to FILE (atomically); both may be given. Also the warnings every command prints.
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
-
 #include <string>
 
 namespace splitray::cli {

@@ -18,8 +18,10 @@ double seconds_since(std::chrono::steady_clock::time_point t) {
 }  // namespace
 
 ProgressBar::ProgressBar(std::string label)
-    : label_(std::move(label)), terminal_(isatty(STDERR_FILENO) == 1),
-      start_(std::chrono::steady_clock::now()), step_start_(start_) {}
+    : label_(std::move(label)),
+      terminal_(isatty(STDERR_FILENO) == 1),
+      start_(std::chrono::steady_clock::now()),
+      step_start_(start_) {}
 
 ProgressBar::~ProgressBar() {
   if (std::uncaught_exceptions() > 0) step_.clear();  // a failed step is not reported done

@@ -126,8 +126,8 @@ double trace_ms(const Accel& accel, std::span<const Ray> rays, std::vector<Hit>&
 // first frame and lights fitted to it once, so that the lighting does not jump between frames.
 class FrameRenderer {
  public:
-  FrameRenderer(const FrameSequence& sequence, const std::vector<Triangle>& first,
-                std::string dir, BuildConfig build)
+  FrameRenderer(const FrameSequence& sequence, const std::vector<Triangle>& first, std::string dir,
+                BuildConfig build)
       : sequence_(sequence), dir_(std::move(dir)), build_(std::move(build)) {
     if (dir_.empty()) return;
     if (auto aff = sequence.scene()) {
@@ -182,7 +182,8 @@ class FrameRenderer {
 void write_csv_and_plot(const AnimateCommand& command, const std::string& csv) {
   if (!command.csv.empty()) write_file_atomically(command.csv, csv);
   if (command.plot.empty()) return;
-  const fs::path tmp = fs::temp_directory_path() / fmt::format("splitray-animate-{}.csv", ::getpid());
+  const fs::path tmp =
+      fs::temp_directory_path() / fmt::format("splitray-animate-{}.csv", ::getpid());
   write_file_atomically(tmp.string(), csv);
   try {
     run_plot_script("plot_animate.py", command.plot, tmp.string());

@@ -49,8 +49,7 @@ std::vector<Vec3> read_points(const std::string& path, const std::string& what) 
 
 // --out: scipy cKDTree.query's answer with Open3D-style padding: indices N x K int64 (-1
 // where fewer than K points exist), distances N x K float32, Euclidean (inf where fewer).
-void write_neighbors(const std::string& path, const KnnResult& result, std::size_t queries,
-                     int k) {
+void write_neighbors(const std::string& path, const KnnResult& result, std::size_t queries, int k) {
   const auto kk = static_cast<std::size_t>(k);
   std::vector<std::int64_t> indices(queries * kk, -1);
   std::vector<float> distances(queries * kk, kInfinity);

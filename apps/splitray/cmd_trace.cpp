@@ -87,7 +87,8 @@ double median(std::vector<double> values) {
 
 void run(const TraceCommand& command) {
   if (!command.hits_out.empty()) {
-    if (command.any) throw Error("--hits-out", "writes closest hits: it cannot be combined with --any");
+    if (command.any)
+      throw Error("--hits-out", "writes closest hits: it cannot be combined with --any");
     check_output_path(command.hits_out, ".npz");
   }
   const Geometry geometry = load_geometry(command.mesh);
@@ -213,11 +214,13 @@ void add_trace_command(CLI::App& app) {
   add_accel_options(*sub, command->accel);
   CLI::Option* count =
       sub->add_option("-n,--rays", command->rays, "Number of rays")->check(CLI::Range(1, 1 << 30));
-  CLI::Option* kind_option = sub->add_option("-k,--kind", command->kind,
-                  "primary: through the pixels of --camera (default: a camera framed on the mesh "
-                  "from outside); random: uniform origins in the bounding box, uniform directions; "
-                  "diffuse: from the primary hits, cosine-distributed about the normal")
-      ->check(CLI::IsMember({"primary", "random", "diffuse"}));
+  CLI::Option* kind_option =
+      sub->add_option(
+             "-k,--kind", command->kind,
+             "primary: through the pixels of --camera (default: a camera framed on the mesh "
+             "from outside); random: uniform origins in the bounding box, uniform directions; "
+             "diffuse: from the primary hits, cosine-distributed about the normal")
+          ->check(CLI::IsMember({"primary", "random", "diffuse"}));
   CLI::Option* seed = sub->add_option("-s,--seed", command->seed, "Seed of the ray set");
   CLI::Option* camera = add_camera_option(*sub, command->camera);
   sub->add_option("--rays-in", command->rays_in,

@@ -53,8 +53,7 @@ void run(const std::vector<std::string>& args) {
   if (::waitpid(child, &status, 0) < 0) throw Error("train", "lost " + trainer.string());
   if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
     throw Error("train", trainer.string() + " failed (exit status " +
-                                      std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1) +
-                                      ")");
+                             std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1) + ")");
 }
 
 }  // namespace

@@ -37,7 +37,8 @@ struct ImageWriteOptions {
 // before any work, so that a bad output name fails at once and writes nothing.
 ImageFormat check_image_path(const std::string& path);
 // Writes `image` in the format of its extension, atomically as write_png.
-void write_image(const std::string& path, const Image& image, const ImageWriteOptions& options = {});
+void write_image(const std::string& path, const Image& image,
+                 const ImageWriteOptions& options = {});
 
 // Writes bytes to `path` atomically (temporary file in the same folder, then rename).
 void write_file_atomically(const std::string& path, const std::string& bytes);

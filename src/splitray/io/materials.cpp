@@ -168,7 +168,8 @@ Material convert(const aiMaterial& m, TextureCache& textures) {
       out.specular = ks * std::max(strength, 0.0f);
     }
     float shininess = 0;
-    if (get_float(m, AI_MATKEY_SHININESS, shininess)) out.shininess = std::clamp(shininess, 1.0f, 1e6f);
+    if (get_float(m, AI_MATKEY_SHININESS, shininess))
+      out.shininess = std::clamp(shininess, 1.0f, 1e6f);
     float opacity = 1;
     if (get_float(m, AI_MATKEY_OPACITY, opacity) && opacity < 1)
       out.transparency = std::clamp(1 - opacity, 0.0f, 1.0f);

@@ -13,8 +13,8 @@
 #include <vector>
 
 #include "splitray/core/errors.hpp"
-#include "splitray/io/assimp_buffer_io.hpp"
 #include "splitray/io/aff.hpp"
+#include "splitray/io/assimp_buffer_io.hpp"
 #include "splitray/io/format_checks.hpp"
 #include "splitray/io/materials.hpp"
 #include "splitray/io/read_file.hpp"
@@ -118,8 +118,8 @@ class Merger {
       throw Error(path_, "more than 2^32 vertices");
     const bool identity = world.IsIdentity();
     const aiMatrix3x3 normal_matrix = aiMatrix3x3(world).Inverse().Transpose();
-    Part part{mesh_.positions.size(), in.mNumVertices, mesh_.faces.size(), 0, in.HasNormals(),
-              in.HasTextureCoords(0)};
+    Part part{mesh_.positions.size(), in.mNumVertices,       mesh_.faces.size(), 0,
+              in.HasNormals(),        in.HasTextureCoords(0)};
     for (unsigned v = 0; v < in.mNumVertices; ++v) {
       const aiVector3D p = identity ? in.mVertices[v] : world * in.mVertices[v];
       mesh_.positions.push_back({p.x, p.y, p.z});
@@ -295,8 +295,8 @@ Mesh load_mesh(const std::string& path, const MeshLoadOptions& options) {
     if (has_own_materials(*scene)) {
       std::vector<std::string> ignored;
       const std::string folder = std::filesystem::path(path).parent_path().string();
-      const std::vector<Material> all = convert_materials(
-          *scene, folder, path, options.warnings ? *options.warnings : ignored);
+      const std::vector<Material> all =
+          convert_materials(*scene, folder, path, options.warnings ? *options.warnings : ignored);
       // Only the materials faces use (assimp adds a stand-in first, files list unused ones),
       // renumbered in order of first use.
       mesh.face_materials = merger.face_materials();

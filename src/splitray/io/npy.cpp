@@ -127,10 +127,10 @@ void write_npz(const std::string& path,
     const auto size = static_cast<std::uint32_t>(data.size());
     // Local file header: stored (no compression), no data descriptor.
     put32(zip, 0x04034b50);
-    put16(zip, 20);  // version needed
-    put16(zip, 0);   // flags
-    put16(zip, 0);   // stored
-    put16(zip, 0);   // time
+    put16(zip, 20);    // version needed
+    put16(zip, 0);     // flags
+    put16(zip, 0);     // stored
+    put16(zip, 0);     // time
     put16(zip, 0x21);  // date: 1980-01-01
     put32(zip, crc);
     put32(zip, size);
@@ -199,7 +199,8 @@ NpyArray parse_npy(const std::vector<unsigned char>& bytes, const std::string& p
   if (order != "False" && order != "True")
     throw Error(path, "the .npy fortran_order '" + order + "' is neither True nor False");
   out.shape = parse_shape(header_value(header, "shape", path), path);
-  const std::size_t item = out.descr.size() >= 3 ? static_cast<std::size_t>(std::atoi(out.descr.c_str() + 2)) : 0;
+  const std::size_t item =
+      out.descr.size() >= 3 ? static_cast<std::size_t>(std::atoi(out.descr.c_str() + 2)) : 0;
   if (out.descr.size() < 3 || std::string("<>|=").find(out.descr[0]) == std::string::npos ||
       std::string("fiub").find(out.descr[1]) == std::string::npos ||
       (item != 1 && item != 2 && item != 4 && item != 8))
@@ -243,7 +244,8 @@ std::vector<std::pair<std::string, NpyArray>> read_npz(const std::string& path) 
     const std::uint32_t flags = u16(at + 6), method = u16(at + 8);
     const std::uint32_t compressed = u32(at + 18), size = u32(at + 22);
     const std::size_t name_length = u16(at + 26), extra = u16(at + 28);
-    if (flags & 8) throw Error(path, "zip data descriptors are not supported (rewrite with numpy.savez)");
+    if (flags & 8)
+      throw Error(path, "zip data descriptors are not supported (rewrite with numpy.savez)");
     const std::size_t data = at + 30 + name_length + extra;
     if (data + compressed > zip.size()) throw Error(path, "the .npz (zip) is truncated");
     std::string name(reinterpret_cast<const char*>(&zip[at + 30]), name_length);
@@ -289,9 +291,9 @@ FloatArray read_npy_floats(const std::string& path) {
   }
   const std::string& d = a.descr;
   const bool big_endian = d[0] == '>';
-  const std::size_t item = d == "<f4" || d == ">f4" || d == "|f4" || d == "=f4"   ? 4
-                           : d == "<f8" || d == ">f8" || d == "=f8" ? 8
-                                                                    : 0;
+  const std::size_t item = d == "<f4" || d == ">f4" || d == "|f4" || d == "=f4" ? 4
+                           : d == "<f8" || d == ">f8" || d == "=f8"             ? 8
+                                                                                : 0;
   if (item == 0) throw Error(path, "the array's type is '" + d + "': float32 or float64 expected");
   FloatArray out;
   out.shape = a.shape;
@@ -324,7 +326,8 @@ FloatArray read_npy_rows(const std::string& path, std::size_t columns, const std
   }
   for (std::size_t i = 0; i < a.values.size(); ++i)
     if (!std::isfinite(a.values[i]))
-      throw Error(path, what + ": row " + std::to_string(i / columns) + " has a NaN or infinite value");
+      throw Error(path,
+                  what + ": row " + std::to_string(i / columns) + " has a NaN or infinite value");
   return a;
 }
 

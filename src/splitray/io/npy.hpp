@@ -27,7 +27,8 @@ NpyArray npy_array(std::vector<std::size_t> shape, const std::vector<std::int64_
 std::string npy_bytes(const NpyArray& array);
 
 // Writes a .npz of the named arrays (member NAME.npy each) atomically.
-void write_npz(const std::string& path, const std::vector<std::pair<std::string, NpyArray>>& arrays);
+void write_npz(const std::string& path,
+               const std::vector<std::pair<std::string, NpyArray>>& arrays);
 
 // The arrays of a .npy file's bytes (`where` names it in errors): descr, shape, C-order bytes
 // (Fortran-ordered 2-D arrays are transposed).

@@ -309,7 +309,8 @@ Scene load_json_scene(const std::string& path) {
       inst.mesh = it->second;
     } else {
       try {
-        scene.meshes.push_back(load_mesh(resolved, {.materials = true, .warnings = &scene.warnings}));
+        scene.meshes.push_back(
+            load_mesh(resolved, {.materials = true, .warnings = &scene.warnings}));
       } catch (const Error& e) {
         r.fail(key_path(where, "mesh"), e.what());
       }

@@ -25,7 +25,11 @@ class Tracer {
  public:
   Tracer(const Scene& scene, const FlatScene& flat, const std::vector<Light>& lights,
          const Accel& accel, int max_depth, float eps)
-      : scene_(scene), flat_(flat), lights_(lights), accel_(accel), max_depth_(max_depth),
+      : scene_(scene),
+        flat_(flat),
+        lights_(lights),
+        accel_(accel),
+        max_depth_(max_depth),
         eps_(eps) {
     for (const Material& m : flat.materials)
       has_transparent_ = has_transparent_ || m.transparency > 0;
@@ -149,8 +153,7 @@ RenderResult render_whitted(const Scene& scene, const Camera& camera,
   const FlatScene flat = flatten(scene);
   const auto accel = make_accel(options.accel, flat.triangles, options.build);
   RenderResult result;
-  result.lights =
-      lights_for_view(scene, flat, *accel, camera, options.width, options.height);
+  result.lights = lights_for_view(scene, flat, *accel, camera, options.width, options.height);
   result.coverage =
       light_coverage(result.lights, flat, *accel, camera, options.width, options.height);
   const Tracer tracer(scene, flat, result.lights, *accel, options.max_depth,

@@ -166,8 +166,7 @@ struct HybridRenderer::Impl {
   // `flat`; the first geometry also decides the lights (fitted to `view` where the scene has
   // none of its own).
   std::shared_ptr<Geometry> make_geometry(
-      FlatScene flat,
-      const std::function<std::unique_ptr<Accel>(std::span<const Triangle>)>& build,
+      FlatScene flat, const std::function<std::unique_ptr<Accel>(std::span<const Triangle>)>& build,
       const Camera* view = nullptr) {
     auto g = std::make_shared<Geometry>();
     g->flat = std::move(flat);
@@ -176,8 +175,8 @@ struct HybridRenderer::Impl {
     if (view)
       view_lights =
           lights_for_view(scene, g->flat, *g->accel, *view, options.width, options.height);
-    g->cpu = std::make_unique<gl::CpuPass>(scene, g->flat, view_lights, *g->accel,
-                                           options.max_depth);
+    g->cpu =
+        std::make_unique<gl::CpuPass>(scene, g->flat, view_lights, *g->accel, options.max_depth);
     g->bounds = bounds_of(g->flat.triangles);
     upload_vertices(*g);
     return g;
@@ -238,9 +237,9 @@ struct HybridRenderer::Impl {
         texture = static_cast<float>(it - uploaded.begin());
         if (it == uploaded.end()) {
           uploaded.push_back(t);
-          texture_info.push_back({t->width, t->height, static_cast<std::int32_t>(texel_data.size()),
-                                  static_cast<std::int32_t>(t->wrap_u) |
-                                      static_cast<std::int32_t>(t->wrap_v) << 2});
+          texture_info.push_back(
+              {t->width, t->height, static_cast<std::int32_t>(texel_data.size()),
+               static_cast<std::int32_t>(t->wrap_u) | static_cast<std::int32_t>(t->wrap_v) << 2});
           for (const Vec3& c : t->texels) texel_data.push_back({c.x, c.y, c.z, 1});
         }
       }
@@ -585,8 +584,7 @@ struct HybridRenderer::Impl {
   }
 };
 
-HybridRenderer::HybridRenderer(const Scene& scene, const HybridOptions& options,
-                               const Camera& view)
+HybridRenderer::HybridRenderer(const Scene& scene, const HybridOptions& options, const Camera& view)
     : impl_(std::make_unique<Impl>(scene, options, view)) {}
 HybridRenderer::~HybridRenderer() = default;
 
