@@ -77,9 +77,11 @@ bool has_numpy() { return std::system("/usr/bin/python3 -c 'import numpy' > /dev
 // ------------------------------------------------------------------------- one JSON rule
 
 TEST_F(CliConsistency, EveryCommandHasJsonAndJsonOut) {
-  for (const std::string command :
-       {"render", "build", "trace", "knn", "animate", "bench build-trace", "bench knn",
-        "bench hybrid", "bench neural"}) {
+  std::vector<std::string> commands = {
+      "render",    "build",        "trace",       "knn", "animate", "view", "bench build-trace",
+      "bench knn", "bench hybrid", "bench neural"};
+  if (fs::exists(kTrainer)) commands.push_back("train");  // splitray-train's own help
+  for (const std::string& command : commands) {
     const Result help = run(command + " --help");
     ASSERT_EQ(help.status, 0) << command;
     EXPECT_NE(help.out.find("--json "), std::string::npos) << command << " has no --json flag";

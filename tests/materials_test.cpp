@@ -201,6 +201,17 @@ TEST(Materials, GltfMetallicRoughnessInPhong) {
   EXPECT_NEAR(m.reflectivity, 0.5f * 0.75f * 0.75f, 1e-6f);
 }
 
+TEST(Materials, ColladaDiffuseTextureThroughAssimpsKeys) {
+  SPLITRAY_REQUIRE_SHARED(path, "skinned_khronos_gltf1/CesiumMan/collada/CesiumMan.dae");
+  const Scene scene = load_scene(path);
+  EXPECT_TRUE(scene.warnings.empty()) << scene.warnings.front();
+  const Mesh& mesh = scene.meshes.at(0);
+  ASSERT_FALSE(mesh.materials.empty());
+  ASSERT_TRUE(mesh.materials[0].diffuse_texture);  // CesiumMan.jpg beside the file
+  EXPECT_EQ(mesh.uvs.size(), mesh.positions.size());
+  EXPECT_GT(luminance_variance(render(scene, 96, 96)), kMinVariance);
+}
+
 TEST(Materials, JsonInstanceOverridesTheFilesMaterials) {
   const fs::path dir = test::temp_dir("materials_json");
   const std::string spider = test::vendored_file("spider/spider.obj");

@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "evaluate.hpp"
+#include "json_output.hpp"
 #include "loss_report.hpp"
 #include "progress.hpp"
 #include "splitray/core/errors.hpp"
@@ -98,6 +99,8 @@ int run(int argc, char** argv) {
       ->check(CLI::Range(1, 256));
   app.add_option("--seed", t.seed, "Seed of the sets, rotations and initial weights");
   app.add_flag("--quiet", quiet, "No per-epoch lines on stderr");
+  cli::JsonOutput json;
+  cli::add_json_options(app, json, "the quality report (also written to NAME.report.json)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -187,7 +190,10 @@ int run(int argc, char** argv) {
   if (!eval_files.empty())
     report["held_out_meshes"] = evaluate(model, whole_mesh_sets(eval_files, e, eval_sets), t);
   write_file_atomically(stem + ".report.json", report.dump(2) + "\n");
-  fmt::print("{}\n", report.dump(2));
+  cli::emit_json(json, report);
+  if (!json.print)
+    fmt::print("splitray-train: wrote {}, {}.loss.csv, {}.loss.png, {}.report.json\n", out, stem,
+               stem, stem);
   return 0;
 }
 

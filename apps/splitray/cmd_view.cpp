@@ -35,6 +35,7 @@ struct ViewCommand {
   std::string screenshot = "splitray-view.png";
   int exit_after = 0;
   AccelOptions accel;
+  cli::JsonOutput json;
 };
 
 void run(const ViewCommand& command) {
@@ -61,7 +62,7 @@ void run(const ViewCommand& command) {
   if (!command.frames.empty()) {
     if (h.build.builder.empty()) h.build.builder = "golden";  // what the predictions steer
     options.predictor.kind = parse_predictor_kind(command.predictor);
-    fmt::print("splitray view: loading the animation ...\n");
+    fmt::print(stderr, "splitray view: loading the animation ...\n");
     const FrameSequence sequence(command.frames);
     options.frames = load_frames(sequence);
     // BART scenes: their materials, lights and camera path; others one flat-shaded mesh.
@@ -80,7 +81,13 @@ void run(const ViewCommand& command) {
     const float vfov = scene.camera ? scene.camera->vfov_degrees : Camera{}.vfov_degrees;
     options.camera = to_camera(parse_camera(command.camera), vfov);
   }
-  run_viewer(scene, options);
+  const ViewerSummary summary = run_viewer(scene, options);
+  cli::emit_json(command.json, {{"frames_shown", summary.frames},
+                                {"fps", summary.fps},
+                                {"gl_renderer", summary.gl_renderer},
+                                {"triangles", summary.triangles},
+                                {"lights", summary.lights},
+                                {"screenshot", options.exit_after > 0 ? command.screenshot : ""}});
 #else
   (void)command;
   throw Error("view", "this splitray was built without OpenGL (SPLITRAY_WITH_GL=OFF)");
@@ -106,25 +113,32 @@ void add_view_command(CLI::App& app) {
                   "until the camera is moved)");
   sub->add_option("--predictor", command->predictor, "Split predictor of the animation's rebuilds")
       ->check(CLI::IsMember({"kalman", "wiener", "none"}));
-  sub->add_option("-W,--width", command->width, "Window width in pixels")->check(CLI::Range(16, 8192));
-  sub->add_option("-H,--height", command->height, "Window height in pixels")->check(CLI::Range(16, 8192));
+  sub->add_option("-W,--width", command->width, "Window width in pixels")
+      ->check(CLI::Range(16, 8192));
+  sub->add_option("-H,--height", command->height, "Window height in pixels")
+      ->check(CLI::Range(16, 8192));
   add_camera_option(*sub, command->camera)
       ->description("Start camera EX,EY,EZ,TX,TY,TZ[,FOV] (default: the scene's, or framed)");
   sub->add_option("-d,--max-depth", command->max_depth, "Reflection and refraction bounces")
       ->check(CLI::Range(0, 64));
-  sub->add_option("--blur-kernel", command->blur_kernel, "K of the KxK blur marking shadow boundaries (odd)");
+  sub->add_option("--blur-kernel", command->blur_kernel,
+                  "K of the KxK blur marking shadow boundaries (odd)");
   sub->add_option("--shadow-map-size", command->shadow_map_size, "Shadow map texels per side");
   sub->add_flag("--no-refine", command->no_refine, "Start with shadow-boundary refinement off");
-  sub->add_flag("--no-reflections", command->no_reflections, "Start with reflection/refraction rays off");
+  sub->add_flag("--no-reflections", command->no_reflections,
+                "Start with reflection/refraction rays off");
   sub->add_flag("--sequential", command->sequential, "Start with the passes strictly in sequence");
   sub->add_flag("--no-overlay", command->no_overlay, "Start without the text overlay");
-  sub->add_option("--screenshot", command->screenshot,
-                  "Image the screenshot key writes (atomically; the rendered frame without overlay; "
-                  ".png, .exr or .pfm)");
+  sub->add_option(
+      "--screenshot", command->screenshot,
+      "Image the screenshot key writes (atomically; the rendered frame without overlay; "
+      ".png, .exr or .pfm)");
   sub->add_option("--exit-after", command->exit_after,
                   "Show this many frames, write the last one to --screenshot and exit (tests)")
       ->check(CLI::NonNegativeNumber);
   add_accel_options(*sub, command->accel);
+  cli::add_json_options(*sub, command->json,
+                        "at exit: frames_shown, fps, gl_renderer, triangles, lights, screenshot");
   sub->callback([command] { run(*command); });
 }
 

@@ -179,7 +179,7 @@ Scene animation_scene(const std::vector<Triangle>& first_frame) {
   return scene_from_mesh(std::move(mesh));  // no vertex normals: flat, as later frames
 }
 
-void run_viewer(const Scene& scene, const ViewerOptions& options) {
+ViewerSummary run_viewer(const Scene& scene, const ViewerOptions& options) {
   const bool animated = options.frames.size() > 1;
   if (animated && options.hybrid.accel != "kd")
     throw Error("--accel", "animations are rebuilt by the predicted kd builder: use --accel kd");
@@ -226,7 +226,7 @@ void run_viewer(const Scene& scene, const ViewerOptions& options) {
   const auto save = [&](const std::string& path) {
     if (last.image.pixels.empty()) return;
     write_image(path, last.image);
-    std::printf("splitray view: saved %s (%d x %d)\n", path.c_str(), last.image.width, last.image.height);
+    std::fprintf(stderr, "splitray view: saved %s (%d x %d)\n", path.c_str(), last.image.width, last.image.height);
     std::fflush(stdout);
   };
   // Puts the finished frame (the renderer's last composite) on the screen with the overlay.
@@ -325,6 +325,7 @@ void run_viewer(const Scene& scene, const ViewerOptions& options) {
   }
   if (options.exit_after > 0 && !options.screenshot.empty()) save(options.screenshot);
   glDeleteVertexArrays(1, &empty_vao);
+  return {shown, fps, renderer_name, triangles, renderer.lights().size()};
 }
 
 }  // namespace splitray
