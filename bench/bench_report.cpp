@@ -1,8 +1,14 @@
 #include "bench_report.hpp"
 
 #include <fmt/core.h>
+#include <unistd.h>
 
+#include <filesystem>
+#include <iostream>
 #include <optional>
+
+#include "splitray/core/errors.hpp"
+#include "splitray/core/image.hpp"
 
 namespace splitray::bench {
 
@@ -216,6 +222,38 @@ std::string markdown_report(const Json& report) {
     for (const Json& note : report["notes"]) out += "- " + note.get<std::string>() + "\n";
   }
   return out;
+}
+
+void emit_report(const cli::JsonOutput& json, const std::string& markdown_path,
+                 const nlohmann::ordered_json& report, const std::string& markdown) {
+  cli::emit_json(json, report);
+  if (!markdown_path.empty())
+    write_file_atomically(markdown_path, markdown);
+  else if (!json.print)
+    std::cout << markdown << std::flush;
+}
+
+void check_output_folders(const std::vector<std::string>& paths) {
+  for (const std::string& path : paths) {
+    if (path.empty()) continue;
+    const auto folder = std::filesystem::absolute(path).parent_path();
+    if (!std::filesystem::is_directory(folder))
+      throw Error(path, "the folder " + folder.string() + " does not exist");
+  }
+}
+
+ReportFile::ReportFile(const cli::JsonOutput& json, const nlohmann::ordered_json& report,
+                       const std::string& name)
+    : path(json.file), temporary(json.file.empty()) {
+  if (!temporary) return;
+  path = (std::filesystem::temp_directory_path() / fmt::format("{}-{}.json", name, ::getpid()))
+             .string();
+  write_file_atomically(path, report.dump(2) + "\n");
+}
+
+ReportFile::~ReportFile() {
+  std::error_code ec;
+  if (temporary) std::filesystem::remove(path, ec);
 }
 
 }  // namespace splitray::bench

@@ -213,7 +213,7 @@ void add_build_trace_options(CLI::App& command, BuildTraceOptions& options) {
       .add_option("--ki", options.intersection_cost, "SAH cost of intersecting a triangle (K_I)")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
-  command.add_option("--json", options.json_path, "Write the full report as JSON to this file");
+  cli::add_json_options(command, options.json, "the full report");
   command.add_option("--markdown", options.markdown_path,
                      "Write the Markdown tables to this file (default: print them)");
   command.add_option("--plot", options.plot_path,
@@ -307,38 +307,14 @@ Json run_build_trace(const BuildTraceOptions& options) {
 
 void build_trace_command(const BuildTraceOptions& options) {
   // Fail on an output folder that does not exist before the long run, not after it.
-  for (const std::string& path : {options.json_path, options.markdown_path, options.plot_path}) {
-    if (path.empty()) continue;
-    const auto folder = std::filesystem::absolute(path).parent_path();
-    if (!std::filesystem::is_directory(folder))
-      throw Error(path, "the folder " + folder.string() + " does not exist");
-  }
+  check_output_folders({options.json.file, options.markdown_path, options.plot_path});
   const Json report = run_build_trace(options);
-  const std::string markdown = markdown_report(report);
-  if (!options.json_path.empty()) write_file_atomically(options.json_path, report.dump(2) + "\n");
-  if (!options.markdown_path.empty())
-    write_file_atomically(options.markdown_path, markdown);
-  else
-    fmt::print("{}", markdown);
+  emit_report(options.json, options.markdown_path, report, markdown_report(report));
   if (!options.plot_path.empty()) {
-    // The script reads the JSON report: the --json file, else a temporary copy.
-    const bool temporary = options.json_path.empty();
-    const std::string json_path = temporary
-                                      ? (std::filesystem::temp_directory_path() /
-                                         fmt::format("splitray-build-trace-{}.json", ::getpid()))
-                                            .string()
-                                      : options.json_path;
-    if (temporary) write_file_atomically(json_path, report.dump(2) + "\n");
-    std::error_code ec;
-    try {
-      run_plot_script("plot_build_trace.py", options.plot_path, json_path);
-    } catch (...) {
-      if (temporary) std::filesystem::remove(json_path, ec);
-      throw;
-    }
-    if (temporary) std::filesystem::remove(json_path, ec);
+    const ReportFile data(options.json, report, "splitray-build-trace");
+    run_plot_script("plot_build_trace.py", options.plot_path, data.path);
   }
-  for (const std::string& path : {options.json_path, options.markdown_path, options.plot_path})
+  for (const std::string& path : {options.json.file, options.markdown_path, options.plot_path})
     if (!path.empty()) fmt::print(stderr, "wrote {}\n", path);
 }
 

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "json_output.hpp"
 #include "splitray/accel/accel.hpp"
 
 namespace splitray::bench {
@@ -25,7 +26,8 @@ struct BuildTraceOptions {
   // SAH constants of the kd builds (and of every tree's reported SAH cost).
   float traversal_cost = BuildConfig{}.traversal_cost;
   float intersection_cost = BuildConfig{}.intersection_cost;
-  std::string json_path, markdown_path;
+  cli::JsonOutput json;
+  std::string markdown_path;
   std::string plot_path;  // PNG of the ratios to Embree (scripts/plot_build_trace.py)
 };
 

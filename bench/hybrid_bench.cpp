@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "bench_meshes.hpp"
+#include "bench_report.hpp"
 #include "machine.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/core/image.hpp"
@@ -146,8 +147,11 @@ Scene hybrid_bench_scene(bool quick, std::vector<std::string>& notes) {
     for (std::size_t k = 0; k < lions.size(); ++k)
       place(scene, load_mesh(lions[k]), clay, 2.2f, {{lion_x[k], -2.4f, -40.0f + 25.0f * k}});
   } else {
-    // Without the shared data: one more dragon and the vendored horse several times.
-    notes.push_back("../shared/data cat and lion poses absent: a fifth dragon and horses stand in");
+    // --quick, or without the shared data: one more dragon and the vendored horse several times.
+    notes.push_back(quick ? "--quick: vendored meshes only (a fifth dragon and horses stand in for "
+                            "the cat and lion poses of ../shared/data)"
+                          : "../shared/data cat and lion poses absent: a fifth dragon and horses "
+                            "stand in");
     Mesh extra = load_mesh(find_data_file("dragon_100k/dragon.obj.gz"));
     place(scene, std::move(extra), gold, 3.0f, {{0.2f, -9.0f, 0}});
     place(scene, load_mesh(find_data_file("horse/horse.obj.gz")), clay, 2.0f,
@@ -202,7 +206,7 @@ void add_hybrid_bench_options(CLI::App& command, HybridBenchOptions& options) {
   command.add_option("--images", options.images_dir,
                      "Write hybrid.png, whitted.png and shadow_errors.png (red: shadow map wrong, "
                      "green: still wrong after refinement) into this folder");
-  command.add_option("--json", options.json_path, "Write the JSON report here (atomically)");
+  cli::add_json_options(command, options.json, "the full report");
   command.add_option("--markdown", options.markdown_path, "Write the Markdown report here");
   command.add_option(
       "--plot", options.plot_path,
@@ -236,7 +240,7 @@ json run_hybrid_bench_report(const HybridBenchOptions& o) {
   ho.blur_kernel = o.blur_kernel;
   ho.shadow_map_size = o.shadow_map_size;
   progress("building " + o.accel + " and uploading the scene to " + renderer_name + " ...");
-  HybridRenderer hybrid(scene, ho);
+  HybridRenderer hybrid(scene, ho, camera);
   const AccelStats stats = hybrid.accel_stats();
 
   // Frame time = wall time of `frames` frames / frames, after one warm-up frame.
@@ -284,8 +288,8 @@ json run_hybrid_bench_report(const HybridBenchOptions& o) {
   progress("shadow states against ray-traced shadows ...");
   const FlatScene flat = flatten(scene);
   const auto exact_accel = make_accel(o.accel, flat.triangles, wo.build);
-  const gl::CpuPass exact(scene, flat, *exact_accel, 0);
-  const std::size_t lights = scene.lights.size();
+  const gl::CpuPass exact(scene, flat, hybrid.lights(), *exact_accel, 0);
+  const std::size_t lights = hybrid.lights().size();
   Image errors = frame.image;
   for (Vec3& p : errors.pixels) p = p * 0.25f;
   std::vector<std::array<std::uint64_t, 3>> rows(static_cast<std::size_t>(height));
@@ -445,20 +449,12 @@ std::string hybrid_markdown_report(const json& r) {
 }
 
 int run_hybrid_bench(const HybridBenchOptions& options) {
+  check_output_folders({options.json.file, options.markdown_path, options.plot_path});
   const json report = run_hybrid_bench_report(options);
-  const std::string markdown = hybrid_markdown_report(report);
-  if (!options.json_path.empty()) write_file_atomically(options.json_path, report.dump(2) + "\n");
-  if (!options.markdown_path.empty())
-    write_file_atomically(options.markdown_path, markdown);
-  else
-    std::cout << markdown;
+  emit_report(options.json, options.markdown_path, report, hybrid_markdown_report(report));
   if (!options.plot_path.empty()) {
-    std::string json_path = options.json_path;
-    if (json_path.empty()) {
-      json_path = (fs::temp_directory_path() / "splitray_hybrid_bench.json").string();
-      write_file_atomically(json_path, report.dump(2) + "\n");
-    }
-    run_plot_script("plot_hybrid.py", options.plot_path, json_path);
+    const ReportFile data(options.json, report, "splitray-hybrid-bench");
+    run_plot_script("plot_hybrid.py", options.plot_path, data.path);
   }
   const json& t = report["targets"];
   return t["cpu_ray_share_met"].get<bool>() && t["psnr_met"].get<bool>() &&

@@ -8,6 +8,8 @@
 // `splitray_bench hybrid`.
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
+
+#include "json_output.hpp"
 #include <string>
 #include <vector>
 
@@ -27,7 +29,8 @@ struct HybridBenchOptions {
   std::string accel = "kd";
   int threads = 0;
   bool quick = false;       // smoke test: 320x240, vendored meshes only
-  std::string json_path, markdown_path, plot_path;
+  cli::JsonOutput json;
+  std::string markdown_path, plot_path;
   std::string images_dir;   // writes hybrid.png, whitted.png and shadow_errors.png there
 };
 

@@ -9,6 +9,7 @@
 #include <map>
 
 #include "bench_meshes.hpp"
+#include "bench_report.hpp"
 #include "machine.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/core/image.hpp"
@@ -299,7 +300,7 @@ void add_knn_bench_options(CLI::App& command, KnnBenchOptions& options) {
   command.add_option("--threads", options.threads, "Worker threads (0 = all cores)")
       ->check(CLI::NonNegativeNumber);
   command.add_option("--seed", options.seed, "Seed of the points and queries");
-  command.add_option("--json", options.json_path, "Write the full report as JSON to this file");
+  cli::add_json_options(command, options.json, "the full report");
   command.add_option("--markdown", options.markdown_path, "Write the Markdown tables to this file");
 }
 
@@ -432,13 +433,9 @@ std::string knn_markdown_report(const json& report) {
 }
 
 int run_knn_bench(const KnnBenchOptions& options) {
+  check_output_folders({options.json.file, options.markdown_path});
   const json report = run_knn_bench_report(options);
-  const std::string markdown = knn_markdown_report(report);
-  if (!options.json_path.empty()) write_file_atomically(options.json_path, report.dump(2) + "\n");
-  if (!options.markdown_path.empty())
-    write_file_atomically(options.markdown_path, markdown);
-  else
-    std::cout << markdown;
+  emit_report(options.json, options.markdown_path, report, knn_markdown_report(report));
   return report["all_agree"].get<bool>() ? 0 : 1;
 }
 

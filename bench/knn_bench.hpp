@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "json_output.hpp"
+
 namespace splitray::bench {
 
 struct KnnBenchOptions {
@@ -27,7 +29,8 @@ struct KnnBenchOptions {
   bool quick = false;              // smoke test: vendored meshes, 100k points, 1 run
   int threads = 0;                 // 0 = all cores
   std::uint64_t seed = 1;
-  std::string json_path, markdown_path;
+  cli::JsonOutput json;
+  std::string markdown_path;
 };
 
 void add_knn_bench_options(CLI::App& command, KnnBenchOptions& options);

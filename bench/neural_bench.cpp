@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "bench_meshes.hpp"
+#include "bench_report.hpp"
 #include "machine.hpp"
 #include "splitray/accel/accel.hpp"
 #include "splitray/accel/neural/model_path.hpp"
@@ -283,6 +284,22 @@ Json compare_points(const std::string& expand, const std::string& model,
   return row;
 }
 
+// Progress text of a row's speed ratios: "primary x0.99 (identical), diffuse x1.01 (...)" for
+// the ray kinds, "k=1 x1.02 (identical), ..." for the k-NN queries.
+std::string ratios(const Json& measured) {
+  std::string text;
+  const auto add = [&](const std::string& name, const Json& m) {
+    const bool same = m.value("hits_identical", m.value("neighbors_identical", false));
+    text += fmt::format("{}{} speed x{:.3f} ({})", text.empty() ? "" : ", ", name,
+                        m.value("ratio", 0.0), same ? "identical" : "DIFFERENT");
+  };
+  if (measured.is_array())
+    for (const Json& m : measured) add("k=" + std::to_string(m.value("k", 0)), m);
+  else
+    for (const auto& [kind, m] : measured.items()) add(kind, m);
+  return text;
+}
+
 // Triangles of about `count`: every s-th of the mesh, or copies of it side by side.
 std::vector<Triangle> resized(std::span<const Triangle> mesh, std::size_t count) {
   std::vector<Triangle> out;
@@ -362,7 +379,13 @@ Json inference_scaling(const ModelInfo& sah, const ModelInfo& vvh, std::span<con
                            {"top_depth", top.depth},
                            {"top_leaves", top.leaves()}};
     }
-    fmt::print(stderr, "  inference at {} primitives: {}\n", n, row.dump());
+    std::string line = fmt::format("  inference at {} primitives:", n);
+    for (const char* kind : {"triangles", "points"})
+      if (row.contains(kind))
+        line +=
+            fmt::format(" {} {:.2f} ms (depth {})", kind, row[kind]["inference_ms"].get<double>(),
+                        row[kind]["top_depth"].get<int>());
+    fmt::print(stderr, "{}\n", line);
     rows.push_back(std::move(row));
   }
   return rows;
@@ -398,7 +421,7 @@ void add_neural_bench_options(CLI::App& command, NeuralBenchOptions& options) {
   command.add_option("--threads", options.threads, "Worker threads (0 = all cores)")
       ->check(CLI::NonNegativeNumber);
   command.add_option("--seed", options.seed, "Seed of rays, points and queries");
-  command.add_option("--json", options.json_path, "Write the full report as JSON to this file");
+  cli::add_json_options(command, options.json, "the full report");
   command.add_option("--markdown", options.markdown_path,
                      "Write the Markdown tables to this file (default: print them)");
 }
@@ -508,8 +531,8 @@ Json run_neural_bench_report(const NeuralBenchOptions& options) {
                                           std::pair{std::string("bvh"), options.bvh_expand}}) {
         try {
           Json row = compare_triangles(accel, expand, sah.path, triangles, sets, runs, identical);
-          fmt::print(stderr, "  {} {}: cost ratio {:.3f}, trace ratio {}\n", accel, expand,
-                     row["cost_ratio"].get<double>(), row["trace"].dump());
+          fmt::print(stderr, "  {} {}: cost ratio {:.3f}, {}\n", accel, expand,
+                     row["cost_ratio"].get<double>(), ratios(row["trace"]));
           rows.push_back(std::move(row));
         } catch (const Error& e) {
           rows.push_back(Json{{"accel", accel}, {"expand", expand}, {"error", e.what()}});
@@ -525,8 +548,8 @@ Json run_neural_bench_report(const NeuralBenchOptions& options) {
             sample_surface(mesh, query_count, options.seed, kQueryStream);
         Json row = compare_points(options.point_expand, vvh.path, points, queries, options.ks, runs,
                                   identical);
-        fmt::print(stderr, "  points {}: cost ratio {:.3f}, knn {}\n", options.point_expand,
-                   row["cost_ratio"].get<double>(), row["knn"].dump());
+        fmt::print(stderr, "  points {}: cost ratio {:.3f}, {}\n", options.point_expand,
+                   row["cost_ratio"].get<double>(), ratios(row["knn"]));
         rows.push_back(std::move(row));
       } catch (const Error& e) {
         rows.push_back(Json{{"structure", "points"}, {"error", e.what()}});
@@ -747,19 +770,9 @@ std::string neural_markdown_report(const Json& report) {
 }
 
 int run_neural_bench(const NeuralBenchOptions& options) {
-  for (const std::string& path : {options.json_path, options.markdown_path}) {
-    if (path.empty()) continue;
-    const auto folder = std::filesystem::absolute(path).parent_path();
-    if (!std::filesystem::is_directory(folder))
-      throw Error(path, "the folder " + folder.string() + " does not exist");
-  }
+  check_output_folders({options.json.file, options.markdown_path});
   const Json report = run_neural_bench_report(options);
-  const std::string markdown = neural_markdown_report(report);
-  if (!options.json_path.empty()) write_file_atomically(options.json_path, report.dump(2) + "\n");
-  if (!options.markdown_path.empty())
-    write_file_atomically(options.markdown_path, markdown);
-  else
-    fmt::print("{}", markdown);
+  emit_report(options.json, options.markdown_path, report, neural_markdown_report(report));
   return report["answers_identical"].get<bool>() ? 0 : 1;
 }
 

@@ -12,6 +12,8 @@
 #include <CLI/CLI.hpp>
 #include <cstdint>
 #include <nlohmann/json.hpp>
+
+#include "json_output.hpp"
 #include <string>
 #include <vector>
 
@@ -29,7 +31,8 @@ struct NeuralBenchOptions {
   bool quick = false;
   int threads = 0;
   std::uint64_t seed = 1;
-  std::string json_path, markdown_path;
+  cli::JsonOutput json;
+  std::string markdown_path;
 };
 
 void add_neural_bench_options(CLI::App& command, NeuralBenchOptions& options);

@@ -4,6 +4,7 @@ find_dependency(assimp)
 find_dependency(ZLIB)
 find_dependency(nlohmann_json)
 find_dependency(embree 3)
+find_dependency(OpenEXR)
 find_package(PkgConfig REQUIRED)
 pkg_check_modules(STB REQUIRED IMPORTED_TARGET stb)
 # splitray_query links lz4 (FLANN's headers call it); render_gl needs OpenGL + EGL when built.

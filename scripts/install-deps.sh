@@ -10,6 +10,8 @@ packages=(
   # libraries
   libembree-dev libtbb-dev libassimp-dev zlib1g-dev nlohmann-json3-dev libcli11-dev libfmt-dev
   libstb-dev libnanoflann-dev libflann-dev liblz4-dev
+  # HDR image output (OpenEXR), NumPy-format tests, the man page, bash completion
+  libopenexr-dev python3-numpy help2man bash-completion
   # OpenGL (hybrid renderer: EGL headless on Mesa llvmpipe, GLFW windows under Xvfb), plots
   libglm-dev libegl-dev libgl-dev libopengl-dev libegl-mesa0 libgl1-mesa-dri libglfw3-dev xvfb xauth
   python3-matplotlib

@@ -59,4 +59,12 @@ if "$splitray" render "$out/missing.obj" -o "$out/x.png" 2> "$out/err"; then
 fi
 grep -q "missing.obj" "$out/err" || { echo "FAILED: error does not name the file" >&2; exit 1; }
 [[ -z "$(ls -A "$out" | grep -v '^err$')" ]] || { echo "FAILED: output left behind" >&2; exit 1; }
+# Materials and textures from the files, HDR output, and an unknown image format refused.
+"$splitray" render data/spider/spider.obj -W 160 -H 120 -o "$out/spider.exr" > /dev/null
+[[ -s "$out/spider.exr" ]] || { echo "FAILED: no spider.exr" >&2; exit 1; }
+if "$splitray" render data/spider/spider.obj -o "$out/spider.jpg" 2> "$out/err"; then
+  echo "FAILED: render to .jpg succeeded" >&2
+  exit 1
+fi
+[[ ! -e "$out/spider.jpg" ]] || { echo "FAILED: .jpg written" >&2; exit 1; }
 echo "== all checks passed"

@@ -84,7 +84,7 @@ class HybridTest : public ::testing::Test {
 TEST_F(HybridTest, AgreesWithWhitted) {
   const Scene scene = small_scene();
   const HybridOptions o = small_options();
-  HybridRenderer renderer(scene, o);
+  HybridRenderer renderer(scene, o, *scene.camera);
   const HybridFrame frame = renderer.render_one(*scene.camera);
   RenderOptions w;
   w.width = o.width;
@@ -112,7 +112,7 @@ TEST_F(HybridTest, AgreesWithWhitted) {
 TEST_F(HybridTest, IdsMatchCpuPrimaryHits) {
   const Scene scene = small_scene();
   const HybridOptions o = small_options();
-  HybridRenderer renderer(scene, o);
+  HybridRenderer renderer(scene, o, *scene.camera);
   const HybridFrame frame = renderer.render_one(*scene.camera);
   const FlatScene flat = flatten(scene);
   const auto accel = make_accel("kd", flat.triangles);
@@ -134,11 +134,11 @@ TEST_F(HybridTest, RefinementFixesShadowMapErrors) {
   const Scene scene = small_scene();
   HybridOptions o = small_options();
   o.shadow_map_size = 256;  // coarse: many wrong pixels for the refinement to fix
-  HybridRenderer renderer(scene, o);
+  HybridRenderer renderer(scene, o, *scene.camera);
   const HybridFrame frame = renderer.render_one(*scene.camera);
   const FlatScene flat = flatten(scene);
   const auto accel = make_accel("kd", flat.triangles);
-  gl::CpuPass exact(scene, flat, *accel, 0);
+  gl::CpuPass exact(scene, flat, renderer.lights(), *accel, 0);
   std::size_t wrong_raw = 0, wrong_refined = 0;
   std::size_t wrong_raw_light[kMaxHybridLights] = {}, wrong_refined_light[kMaxHybridLights] = {};
   std::uint64_t rays = 0;
@@ -179,7 +179,7 @@ TEST_F(HybridTest, InterleavedEqualsSequential) {
   std::vector<Image> images[2];
   for (int mode = 0; mode < 2; ++mode) {
     o.interleaved = mode == 1;
-    HybridRenderer renderer(scene, o);
+    HybridRenderer renderer(scene, o, *scene.camera);
     renderer.render(cameras, [&](HybridFrame&& f) { images[mode].push_back(std::move(f.image)); });
   }
   ASSERT_EQ(images[0].size(), 3u);
@@ -192,10 +192,10 @@ TEST_F(HybridTest, ShadowMapsAnswerSecondaryShadowsWithoutChangingTheImage) {
   const Scene scene = small_scene();
   HybridOptions o = small_options();
   o.map_secondary_shadows = false;
-  HybridRenderer traced(scene, o);
+  HybridRenderer traced(scene, o, *scene.camera);
   const HybridFrame all_rays = traced.render_one(*scene.camera);
   o.map_secondary_shadows = true;
-  HybridRenderer mapped(scene, o);
+  HybridRenderer mapped(scene, o, *scene.camera);
   const HybridFrame with_maps = mapped.render_one(*scene.camera);
   std::printf("secondary shadows: %llu answered by maps, cpu rays %llu -> %llu\n",
               static_cast<unsigned long long>(with_maps.map_answers),
@@ -226,7 +226,7 @@ TEST_F(HybridTest, NewTrianglesBetweenFramesKeepFramesInFlightIntact) {
   std::vector<Image> images[2];
   for (int mode = 0; mode < 2; ++mode) {
     o.interleaved = mode == 1;
-    HybridRenderer renderer(scene, o);
+    HybridRenderer renderer(scene, o, *scene.camera);
     for (int k = 0; k < 3; ++k) {
       if (k > 0) renderer.set_triangles(moved(k));
       if (auto f = renderer.submit(*scene.camera)) images[mode].push_back(std::move(f->image));
@@ -237,7 +237,7 @@ TEST_F(HybridTest, NewTrianglesBetweenFramesKeepFramesInFlightIntact) {
   ASSERT_EQ(images[1].size(), 3u);
   for (int k = 0; k < 3; ++k) EXPECT_EQ(images[0][k].pixels, images[1][k].pixels) << "frame " << k;
   // Frame 2 equals a renderer that had frame 2's triangles from the start (same flat normals).
-  HybridRenderer fresh(scene, o);
+  HybridRenderer fresh(scene, o, *scene.camera);
   fresh.set_triangles(moved(2));
   EXPECT_EQ(fresh.render_one(*scene.camera).image.pixels, images[1][2].pixels);
   EXPECT_NE(images[1][0].pixels, images[1][2].pixels);
@@ -248,7 +248,7 @@ TEST_F(HybridTest, BadOptionsAreErrors) {
   const Scene scene = small_scene();
   HybridOptions o = small_options();
   o.blur_kernel = 4;
-  EXPECT_THROW(HybridRenderer(scene, o), Error);
+  EXPECT_THROW(HybridRenderer(scene, o, Camera{}), Error);
 }
 
 }  // namespace

@@ -300,7 +300,8 @@ TEST_F(Io, LoadSceneOfAMeshFile) {
   const Scene scene = load_scene(fixture("cube.off"));
   EXPECT_EQ(scene.meshes.size(), 1u);
   EXPECT_EQ(scene.instances.size(), 1u);
-  EXPECT_EQ(scene.lights.size(), 1u);
+  EXPECT_TRUE(scene.lights.empty());  // lit for the view when rendered
+  EXPECT_TRUE(scene.lights_fit_view);
   EXPECT_TRUE(scene.camera.has_value());
 }
 
@@ -689,7 +690,7 @@ TEST(IoScene, FixtureSceneLoads) {
   EXPECT_TRUE(scene.materials[2].fresnel);
   EXPECT_EQ(scene.instances[0].material, 1u);
   EXPECT_EQ(scene.instances[1].material, 2u);
-  EXPECT_EQ(scene.instances[2].material, 0u);
+  EXPECT_FALSE(scene.instances[2].material.has_value());  // the mesh's own, or "default"
   ASSERT_EQ(scene.lights.size(), 2u);
   EXPECT_EQ(scene.lights[0].kind, Light::Kind::point);
   EXPECT_EQ(scene.lights[0].intensity, 150);
@@ -750,10 +751,12 @@ TEST_F(IoSceneFile, MatrixForms) {
 TEST_F(IoSceneFile, Defaults) {
   const Scene s = load_scene(scene(R"({"instances": [{"mesh": "cube.obj"}]})"));
   EXPECT_EQ(s.materials.size(), 1u);
-  EXPECT_EQ(s.lights.size(), 1u);     // a light where scene_from_mesh puts one
+  EXPECT_TRUE(s.lights.empty());  // lights fitted to the view, as for a mesh file
+  EXPECT_TRUE(s.lights_fit_view);
   EXPECT_TRUE(s.camera.has_value());  // framed around the scene
   const Scene dark = load_scene(scene(R"({"instances": [{"mesh": "cube.obj"}], "lights": []})"));
   EXPECT_TRUE(dark.lights.empty());
+  EXPECT_FALSE(dark.lights_fit_view);
   const Scene redefined = load_scene(scene(R"({"materials": [{"name": "default", "diffuse": 0.2}],
                                                "instances": [{"mesh": "cube.obj"}]})"));
   ASSERT_EQ(redefined.materials.size(), 1u);

@@ -179,9 +179,34 @@ TEST_F(ViewTest, NoDisplayIsAClearError) {
                               quote(scene.string()) + " -W 64 -H 48 --exit-after 1",
                           dir_);
   EXPECT_EQ(view.status, 1) << view.output;  // an error, not a crash
-  EXPECT_NE(view.output.find("splitray: splitray view: cannot open a window"), std::string::npos)
+  EXPECT_NE(view.output.find("splitray: view: cannot open a window"), std::string::npos)
       << view.output;
   EXPECT_NE(view.output.find("xvfb-run"), std::string::npos) << view.output;
 }
 
 }  // namespace
+
+// BART scenes: the file's camera, lights and materials, as `render --mode hybrid` shows them,
+// and --frames plays the scene along its camera path.
+TEST_F(ViewTest, BartSceneWithItsCameraAndItsAnimation) {
+  SPLITRAY_REQUIRE_SHARED(aff, "anim_bart_museum/aff/museum5.aff");
+  const fs::path shot = dir_ / "view.png", headless = dir_ / "headless.png";
+  const Result view = run("xvfb-run -a " + quote(kBinary) + " view " + quote(aff) +
+                              " -W 160 -H 120 --exit-after 3 --screenshot " + quote(shot.string()),
+                          dir_);
+  const Result render = run(quote(kBinary) + " render " + quote(aff) +
+                                " -W 160 -H 120 --mode hybrid -o " + quote(headless.string()),
+                            dir_);
+  if (render.status != 0 && render.output.find("OpenGL") != std::string::npos)
+    GTEST_SKIP() << "no usable headless OpenGL: " << render.output;
+  ASSERT_EQ(view.status, 0) << view.output;
+  ASSERT_EQ(render.status, 0) << render.output;
+  EXPECT_GE(psnr(read_png(shot), read_png(headless)), 40.0);
+  const Result frames = run("xvfb-run -a " + quote(kBinary) + " view --frames " + quote(aff) +
+                                " -W 96 -H 72 --exit-after 3 --json --screenshot " +
+                                quote(shot.string()),
+                            dir_);
+  ASSERT_EQ(frames.status, 0) << frames.output;
+  EXPECT_EQ(read_png(shot).width, 96);
+  EXPECT_NE(frames.output.find("\"frames_shown\": 3"), std::string::npos) << frames.output;
+}

@@ -1,6 +1,5 @@
 #pragma once
-// The loss per epoch as CSV and as a PNG plot (drawn with the project's image code, so that
-// no plotting package is needed).
+// The loss per epoch as CSV and as a PNG plot (scripts/plot_loss.py: axes, labels, legend).
 #include <string>
 #include <vector>
 
@@ -9,7 +8,7 @@
 namespace splitray::train {
 
 void write_loss_csv(const std::string& path, const std::vector<EpochStats>& epochs);
-// Total loss (red) and tree term (blue) against the epoch, on a grid of tenths; both atomic.
-void write_loss_png(const std::string& path, const std::vector<EpochStats>& epochs);
+// The plot of a CSV of write_loss_csv (Debian's python3-matplotlib); atomic like the CSV.
+void write_loss_png(const std::string& path, const std::string& csv_path);
 
 }  // namespace splitray::train

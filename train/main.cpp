@@ -8,9 +8,10 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "../apps/splitray/progress.hpp"
 #include "evaluate.hpp"
+#include "json_output.hpp"
 #include "loss_report.hpp"
+#include "progress.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/core/image.hpp"
 #include "train_data.hpp"
@@ -98,6 +99,8 @@ int run(int argc, char** argv) {
       ->check(CLI::Range(1, 256));
   app.add_option("--seed", t.seed, "Seed of the sets, rotations and initial weights");
   app.add_flag("--quiet", quiet, "No per-epoch lines on stderr");
+  cli::JsonOutput json;
+  cli::add_json_options(app, json, "the quality report (also written to NAME.report.json)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -121,7 +124,7 @@ int run(int argc, char** argv) {
     throw Error("--out", "folder " + out_path.parent_path().string() + " does not exist");
   const std::string stem = stem_of(out);
 
-  app::ProgressBar bar("train");
+  cli::ProgressBar bar("train");
   bar.status("building the training sets");
   const std::vector<TrainSet> sets = build_training_sets(data, d);
   if (!quiet)
@@ -132,9 +135,11 @@ int run(int argc, char** argv) {
       [&](const EpochStats& e) {
         if (quiet) return;
         bar.finish();
-        fmt::print(stderr,
-                   "epoch {:3d}: loss {:.6f} (tree {:.6f}, bound {:.6f}), cost {:.4f}, {:.0f} s\n",
-                   e.epoch, e.loss, e.tree, e.bound, e.cost, e.seconds);
+        // Epoch 0 is the untrained network's evaluation, not a pass over the data.
+        const std::string name =
+            e.epoch == 0 ? "before training" : fmt::format("epoch {}/{}", e.epoch, t.epochs);
+        fmt::print(stderr, "{}: loss {:.6f} (tree {:.6f}, bound {:.6f}), cost {:.4f}, {:.0f} s\n",
+                   name, e.loss, e.tree, e.bound, e.cost, e.seconds);
       });
   bar.finish();
 
@@ -164,7 +169,11 @@ int run(int argc, char** argv) {
   model.metadata = meta.dump();
   write_neural_model(model, out);
   write_loss_csv(stem + ".loss.csv", result.epochs);
-  write_loss_png(stem + ".loss.png", result.epochs);
+  try {
+    write_loss_png(stem + ".loss.png", stem + ".loss.csv");
+  } catch (const Error& e) {  // the model is written: a missing plot is no reason to fail
+    fmt::print(stderr, "splitray-train: warning: no loss plot: {}\n", e.what());
+  }
 
   // Quality against a greedy top of the same depth, at inference's M, on fresh sets.
   DataOptions e = d;
@@ -181,7 +190,10 @@ int run(int argc, char** argv) {
   if (!eval_files.empty())
     report["held_out_meshes"] = evaluate(model, whole_mesh_sets(eval_files, e, eval_sets), t);
   write_file_atomically(stem + ".report.json", report.dump(2) + "\n");
-  fmt::print("{}\n", report.dump(2));
+  cli::emit_json(json, report);
+  if (!json.print)
+    fmt::print("splitray-train: wrote {}, {}.loss.csv, {}.loss.png, {}.report.json\n", out, stem,
+               stem, stem);
   return 0;
 }
 

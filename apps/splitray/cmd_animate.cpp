@@ -15,6 +15,7 @@
 
 #include "animate_refit.hpp"
 #include "commands.hpp"
+#include "json_output.hpp"
 #include "options.hpp"
 #include "progress.hpp"
 #include "splitray/accel/embree/embree_accel.hpp"
@@ -45,7 +46,7 @@ struct AnimateCommand {
   std::size_t max_frames = 0;
   std::size_t rays = 16384;
   std::uint64_t seed = 1;
-  bool json = false;
+  cli::JsonOutput json;
   bool refit = false;  // --accel bvh: refit the first frame's BVH instead of predicting splits
   std::string csv, plot, render_dir, results, name;
 };
@@ -85,8 +86,9 @@ std::string optional_number(const std::optional<double>& v) {
   return v ? fmt::format("{:.9g}", *v) : "";
 }
 
+// `kd_columns` false (Embree): only the update and trace times, the kd-only columns empty.
 std::string csv_text(const std::vector<FrameRow>& rows, const FrameSequence& frames,
-                     const std::string& predictor) {
+                     const std::string& predictor, bool kd_columns = true) {
   std::ostringstream out;
   out << "frame,predictor,build_ms_full,build_ms_predicted,build_ms_sah,sah_cost_full,"
          "sah_cost_predicted,nodes_full,nodes_predicted,cost_evals_full,cost_evals_predicted,"
@@ -94,6 +96,11 @@ std::string csv_text(const std::vector<FrameRow>& rows, const FrameSequence& fra
          "root_predicted,trace_ms_full,trace_ms_predicted,hit_mismatches,label\n";
   for (std::size_t i = 0; i < rows.size(); ++i) {
     const FrameRow& r = rows[i];
+    if (!kd_columns) {
+      out << fmt::format("{},{},,{:.4f},,,,,,,,,,,,,,,,,{:.4f},0,\"{}\"\n", i, predictor,
+                         r.build_ms_predicted, r.trace_ms_predicted, frames.label(i));
+      continue;
+    }
     out << fmt::format(
         "{},{},{:.4f},{:.4f},{:.4f},{:.6f},{:.6f},{},{},{},{},{},{},{},{:.6g},{:.6g},{},{},{},{:."
         "4f},{:.4f},{},\"{}\"\n",
@@ -114,28 +121,77 @@ double trace_ms(const Accel& accel, std::span<const Ray> rays, std::vector<Hit>&
   return timer.ms();
 }
 
-Mesh mesh_of(const std::vector<Triangle>& triangles) {
-  Mesh mesh;
-  mesh.name = "frame";
-  for (const Triangle& t : triangles) {
-    const auto base = static_cast<std::uint32_t>(mesh.positions.size());
-    mesh.positions.push_back(t.v0);
-    mesh.positions.push_back(t.v1);
-    mesh.positions.push_back(t.v2);
-    mesh.faces.push_back({base, base + 1, base + 2});
+// --render DIR: every frame through the Whitted renderer as DIR/frame-NNNN.png. BART scenes
+// keep their materials, lights and camera path; other sequences get a camera framed on the
+// first frame and lights fitted to it once, so that the lighting does not jump between frames.
+class FrameRenderer {
+ public:
+  FrameRenderer(const FrameSequence& sequence, const std::vector<Triangle>& first, std::string dir,
+                BuildConfig build)
+      : sequence_(sequence), dir_(std::move(dir)), build_(std::move(build)) {
+    if (dir_.empty()) return;
+    if (auto aff = sequence.scene()) {
+      scene_ = std::move(*aff);
+    } else {
+      Mesh mesh;
+      mesh.name = "frame";
+      scene_ = scene_from_mesh(soup(first, mesh));
+    }
+    fixed_camera_ = scene_.camera ? *scene_.camera : Camera::frame(scene_.bounds());
+    fs::create_directories(dir_);
   }
-  return mesh;
-}
 
-void render_frame(const std::vector<Triangle>& triangles, const Camera& camera,
-                  const BuildConfig& build, const std::string& dir, std::size_t index) {
-  RenderOptions options;
-  options.width = 640;
-  options.height = 480;
-  options.build = build;
-  const RenderResult result = render_whitted(scene_from_mesh(mesh_of(triangles)), camera, options);
-  fs::create_directories(dir);
-  write_png((fs::path(dir) / fmt::format("frame-{:04d}.png", index)).string(), result.image);
+  void render(std::size_t index, const std::vector<Triangle>& triangles) {
+    if (dir_.empty()) return;
+    soup(triangles, scene_.meshes[0]);
+    RenderOptions options;
+    options.width = 640;
+    options.height = 480;
+    options.build = build_;
+    options.build.builder.clear();  // the structure's default builder, whatever animate times
+    const Camera camera = sequence_.camera(index).value_or(fixed_camera_);
+    const RenderResult result = render_whitted(scene_, camera, options);
+    if (scene_.lights_fit_view) {  // fitted to the first frame, kept for the others
+      scene_.lights = result.lights;
+      scene_.lights_fit_view = false;
+    }
+    write_image((fs::path(dir_) / fmt::format("frame-{:04d}.png", index)).string(), result.image);
+  }
+
+ private:
+  // The triangles as the mesh's vertices, three per face (the frames' order).
+  static Mesh& soup(const std::vector<Triangle>& triangles, Mesh& mesh) {
+    mesh.positions.resize(triangles.size() * 3);
+    mesh.faces.resize(triangles.size());
+    for (std::size_t t = 0; t < triangles.size(); ++t) {
+      const auto base = static_cast<std::uint32_t>(3 * t);
+      for (int k = 0; k < 3; ++k) mesh.positions[base + k] = triangles[t].vertex(k);
+      mesh.faces[t] = {base, base + 1, base + 2};
+    }
+    return mesh;
+  }
+
+  const FrameSequence& sequence_;
+  std::string dir_;
+  BuildConfig build_;
+  Scene scene_;
+  Camera fixed_camera_;
+};
+
+// --csv and --plot of the per-frame rows.
+void write_csv_and_plot(const AnimateCommand& command, const std::string& csv) {
+  if (!command.csv.empty()) write_file_atomically(command.csv, csv);
+  if (command.plot.empty()) return;
+  const fs::path tmp =
+      fs::temp_directory_path() / fmt::format("splitray-animate-{}.csv", ::getpid());
+  write_file_atomically(tmp.string(), csv);
+  try {
+    run_plot_script("plot_animate.py", command.plot, tmp.string());
+  } catch (...) {
+    fs::remove(tmp);
+    throw;
+  }
+  fs::remove(tmp);
 }
 
 // The sequence's name for --results: --name, else the folder of the frames (its parent when
@@ -218,17 +274,22 @@ void run_embree(const AnimateCommand& command, const FrameSequence& sequence,
   std::vector<double> ms;
   double trace_total_ms = 0;  // primary rays per frame: what a refit costs in tracing speed
   std::vector<Hit> hits;
-  ProgressBar bar("animate");
+  std::vector<FrameRow> rows(frames.size());
+  FrameRenderer renderer(sequence, frames[0], command.render_dir, command.accel.build);
+  cli::ProgressBar bar("animate");
   Timer timer;
   const auto scene = make_embree_scene(frames[0], command.accel.build);
   ms.push_back(timer.ms());
   for (std::size_t i = 0; i < frames.size(); ++i) {
     if (i > 0) ms.push_back(scene->update(frames[i]));
+    rows[i].build_ms_predicted = ms[i];
     if (command.rays > 0) {
       const std::vector<Ray> rays =
           make_rays(frames[i], RayKind::primary, command.seed + i, command.rays);
-      trace_total_ms += trace_ms(*scene, rays, hits);
+      rows[i].trace_ms_predicted = trace_ms(*scene, rays, hits);
+      trace_total_ms += rows[i].trace_ms_predicted;
     }
+    renderer.render(i, frames[i]);
     bar.update(static_cast<double>(i + 1) / static_cast<double>(frames.size()));
   }
   bar.finish();
@@ -250,12 +311,12 @@ void run_embree(const AnimateCommand& command, const FrameSequence& sequence,
                         {"threads", effective_threads(command.accel.build.threads)},
                         {"first_frame", sequence.label(0)},
                         {"build_ms", ms}};
+  write_csv_and_plot(command, csv_text(rows, sequence, "embree-" + builder, false));
   if (!command.results.empty())
     write_results(command.results, sequence_name(command, sequence) + "/embree-" + builder,
                   summary);
-  if (command.json) {
-    print_json(summary);
-  } else {
+  cli::emit_json(command.json, summary);
+  if (!command.json.print) {
     for (std::size_t i = 0; i < ms.size(); ++i)
       fmt::print("frame {:4d}  build_ms {:9.3f}\n", i, ms[i]);
     print_table(
@@ -274,7 +335,7 @@ void run(AnimateCommand command) {
   command.config.kind = parse_predictor_kind(command.predictor);
   std::vector<std::vector<Triangle>> frames;
   {
-    ProgressBar bar("loading");
+    cli::ProgressBar bar("loading");
     bar.status("loading " + std::to_string(sequence.size()) + " frames");
     frames = load_frames(sequence, command.max_frames);
   }
@@ -284,7 +345,7 @@ void run(AnimateCommand command) {
   if (command.accel.accel == "embree") return run_embree(command, sequence, frames);
   if (command.accel.accel == "bvh") {
     if (!command.refit) throw Error("--accel bvh", "animate refits BVHs: add --refit");
-    ProgressBar bar("animate");
+    cli::ProgressBar bar("animate");
     const std::vector<RefitFrame> refits =
         refit_frames(frames, command.accel.build, command.rays, command.seed,
                      [&](double done) { bar.update(done); });
@@ -305,13 +366,8 @@ void run(AnimateCommand command) {
       r.trace_ms_predicted = f.trace_ms_refit;
       r.hit_mismatches = f.hit_mismatches;
     }
-    if (!command.render_dir.empty()) {
-      Aabb box;
-      for (const Triangle& t : frames[0]) box.extend(t.bounds());
-      const Camera camera = Camera::frame(box);
-      for (std::size_t i = 0; i < frames.size(); ++i)
-        render_frame(frames[i], camera, BuildConfig{}, command.render_dir, i);
-    }
+    FrameRenderer renderer(sequence, frames[0], command.render_dir, command.accel.build);
+    for (std::size_t i = 0; i < frames.size(); ++i) renderer.render(i, frames[i]);
     const std::string builder =
         command.accel.build.builder.empty() ? "binned" : command.accel.build.builder;
     return report(command, sequence, frames, rows, builder);
@@ -328,8 +384,8 @@ void run(AnimateCommand command) {
   sah.builder = "sah";
   SplitPredictor predictor(command.config);
   std::vector<FrameRow> rows(frames.size());
-  std::optional<Camera> camera;
-  ProgressBar bar("animate");
+  FrameRenderer renderer(sequence, frames[0], command.render_dir, base);
+  cli::ProgressBar bar("animate");
   std::vector<Hit> hits_full, hits_predicted;
   for (std::size_t i = 0; i < frames.size(); ++i) {
     const std::vector<Triangle>& tris = frames[i];
@@ -376,14 +432,7 @@ void run(AnimateCommand command) {
         row.hit_mismatches +=
             hits_full[r].prim != hits_predicted[r].prim || hits_full[r].t != hits_predicted[r].t;
     }
-    if (!command.render_dir.empty()) {
-      if (!camera) {
-        Aabb box;
-        for (const Triangle& t : tris) box.extend(t.bounds());
-        camera = Camera::frame(box);
-      }
-      render_frame(tris, *camera, base, command.render_dir, i);
-    }
+    renderer.render(i, tris);
     bar.update(static_cast<double>(i + 1) / frames.size());
   }
   bar.finish();
@@ -425,20 +474,7 @@ void report(const AnimateCommand& command, const FrameSequence& sequence,
   const std::string predictor = command.refit ? "refit" : command.predictor;
   const auto predicted_only = [&](double value) { return command.refit ? Json() : Json(value); };
 
-  const std::string csv = csv_text(rows, sequence, predictor);
-  if (!command.csv.empty()) write_file_atomically(command.csv, csv);
-  if (!command.plot.empty()) {
-    const fs::path tmp =
-        fs::temp_directory_path() / fmt::format("splitray-animate-{}.csv", ::getpid());
-    write_file_atomically(tmp.string(), csv);
-    try {
-      run_plot_script("plot_animate.py", command.plot, tmp.string());
-    } catch (...) {
-      fs::remove(tmp);
-      throw;
-    }
-    fs::remove(tmp);
-  }
+  write_csv_and_plot(command, csv_text(rows, sequence, predictor));
 
   Json summary = {
       {"frames", rows.size()},
@@ -475,10 +511,8 @@ void report(const AnimateCommand& command, const FrameSequence& sequence,
                   sequence_name(command, sequence) + "/" +
                       (command.refit ? "bvh-" + builder + "-refit" : command.predictor),
                   summary);
-  if (command.json) {
-    print_json(summary);
-    return;
-  }
+  cli::emit_json(command.json, summary);
+  if (command.json.print) return;
   if (command.refit)
     fmt::print("full = rebuilt, pred = refitted ({}), sah = sbvh rebuilt\n", builder);
   fmt::print("{:>5} {:>10} {:>10} {:>10} {:>9} {:>9} {:>8} {:>9} {:>9} {:>8} {:>8} {:>9} {:>9}\n",
@@ -536,7 +570,7 @@ void add_animate_command(CLI::App& app) {
   sub->add_flag("--refit", command->refit,
                 "With --accel bvh: refit the first frame's BVH to every frame; 'full' is the "
                 "BVH rebuilt every frame, 'predicted' the refitted one, 'sah' sbvh rebuilt");
-  sub->add_flag("--json", command->json, "Print the summary as one JSON object");
+  cli::add_json_options(*sub, command->json, "the summary");
   sub->add_option("--csv", command->csv, "Write per-frame rows to this CSV file");
   sub->add_option("--plot", command->plot,
                   "Draw build times and root splits (paper Fig. 7) to this PNG");
@@ -545,7 +579,9 @@ void add_animate_command(CLI::App& app) {
       "Merge the summary into this JSON file (and its .md table), keyed sequence/predictor");
   sub->add_option("--name", command->name,
                   "Name of the sequence in --results (default: its folder)");
-  sub->add_option("--render", command->render_dir, "Render every frame as a PNG into this folder");
+  sub->add_option("--render", command->render_dir,
+                  "Render every frame as a PNG into this folder (BART scenes: with their camera "
+                  "path, lights and materials)");
   sub->callback([command] { run(*command); });
 }
 

@@ -4,6 +4,7 @@
 #include <memory>
 
 #include "commands.hpp"
+#include "json_output.hpp"
 #include "options.hpp"
 
 namespace splitray::app {
@@ -13,7 +14,7 @@ namespace {
 struct BuildCommand {
   std::string mesh;
   AccelOptions accel;
-  bool json = false;
+  cli::JsonOutput json;
 };
 
 void run(const BuildCommand& command) {
@@ -21,13 +22,13 @@ void run(const BuildCommand& command) {
   const auto accel = make_accel(command.accel.accel, geometry.triangles, command.accel.build);
   const AccelStats& stats = accel->stats();
   const int threads = effective_threads(command.accel.build.threads);
-  if (command.json) {
+  if (command.json.wanted()) {
     nlohmann::ordered_json object = stats_json(stats);
     object["mesh"] = command.mesh;
     object["load_ms"] = geometry.load_ms;
     object["threads"] = threads;
-    print_json(object);
-    return;
+    cli::emit_json(command.json, object);
+    if (command.json.print) return;
   }
   fmt::print("splitray build: {} on {}\n", structure_name(stats), command.mesh);
   auto rows = stats_rows(stats);
@@ -44,8 +45,8 @@ void add_build_command(CLI::App& app) {
   sub->add_option("MESH", command->mesh, "Mesh file (any format of render; also *.gz) or JSON scene")
       ->required();
   add_accel_options(*sub, command->accel);
-  sub->add_flag("--json", command->json,
-                "Print one JSON object: prims, build_ms, sah_cost (null if none), nodes, leaves, "
+  cli::add_json_options(*sub, command->json,
+                "prims, build_ms, sah_cost (null if none), nodes, leaves, "
                 "empty_leaves, max_depth, mean_leaf_depth, mean_leaf_prims, prim_refs, bytes, "
                 "cost_evals, accel, builder, mesh, load_ms, threads; with --builder neural also "
                 "inference_ms and top_depth (sah_cost is computed from the finished tree the same "

@@ -9,10 +9,12 @@
 #include <optional>
 
 #include "commands.hpp"
+#include "json_output.hpp"
 #include "options.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/core/parallel.hpp"
 #include "splitray/core/timer.hpp"
+#include "splitray/io/npy.hpp"
 #include "splitray/query/neighbor_index.hpp"
 #include "splitray/query/point_input.hpp"
 
@@ -29,20 +31,68 @@ struct KnnCommand {
   std::size_t samples = 1000000;
   NeighborIndexConfig index;
   int threads = 0;
-  bool json = false;
+  std::string queries_in, out;  // the user's queries (.npy), the neighbours written (.npz)
+  cli::JsonOutput json;
 };
+
+bool is_npy(const std::string& path) {
+  return path.size() >= 4 && (path.ends_with(".npy") || path.ends_with(".NPY"));
+}
+
+std::vector<Vec3> read_points(const std::string& path, const std::string& what) {
+  const FloatArray a = read_npy_rows(path, 3, what + " (x, y, z)");
+  std::vector<Vec3> points(a.shape[0]);
+  for (std::size_t i = 0; i < points.size(); ++i)
+    points[i] = {a.values[3 * i], a.values[3 * i + 1], a.values[3 * i + 2]};
+  return points;
+}
+
+// --out: scipy cKDTree.query's answer with Open3D-style padding: indices N x K int64 (-1
+// where fewer than K points exist), distances N x K float32, Euclidean (inf where fewer).
+void write_neighbors(const std::string& path, const KnnResult& result, std::size_t queries, int k) {
+  const auto kk = static_cast<std::size_t>(k);
+  std::vector<std::int64_t> indices(queries * kk, -1);
+  std::vector<float> distances(queries * kk, kInfinity);
+  for (std::size_t q = 0; q < queries; ++q) {
+    const auto ids = result.indices_of(q);
+    const auto ds = result.distances_of(q);
+    for (std::size_t j = 0; j < ids.size() && j < kk; ++j) {
+      indices[q * kk + j] = ids[j];
+      distances[q * kk + j] = ds[j];
+    }
+  }
+  write_npz(path, {{"indices", npy_array({queries, kk}, indices)},
+                   {"distances", npy_array({queries, kk}, distances)}});
+}
 
 void run(const KnnCommand& command) {
   const float radius = command.radius ? static_cast<float>(*command.radius) : 0.0f;
   if (command.radius) check_radius(radius, "--radius");
   if (!command.radius && command.k < 1)
     throw Error("--k", "k must be at least 1 (got " + std::to_string(command.k) + ")");
+  if (!command.out.empty()) {
+    if (command.radius)
+      throw Error("--out", "writes k-nearest answers (N x K arrays): use --k, not --radius");
+    check_output_path(command.out, ".npz");
+  }
   const ThreadLimit limit(command.threads);
   const Timer load_timer;
-  const PointInput input = load_point_input(command.input, command.samples, command.seed);
-  const std::vector<Vec3> queries = make_queries(input, command.queries, command.seed);
+  PointInput input;
+  if (is_npy(command.input)) {
+    input.path = command.input;
+    input.points = read_points(command.input, "points");
+  } else {
+    input = load_point_input(command.input, command.samples, command.seed);
+  }
+  const std::vector<Vec3> queries = command.queries_in.empty()
+                                        ? make_queries(input, command.queries, command.seed)
+                                        : read_points(command.queries_in, "queries");
   const double load_ms = load_timer.ms();
-  if (!command.radius) check_k(command.k, input.points.size(), "--k");
+  // With --out, K may exceed the points: the missing neighbours are padded.
+  const int k = command.out.empty()
+                    ? command.k
+                    : static_cast<int>(std::min<std::size_t>(command.k, input.points.size()));
+  if (!command.radius) check_k(k, input.points.size(), "--k");
 
   NeighborIndexConfig config = command.index;
   // A radius search builds the VVH for that radius (paper 003 §6.3), unless told otherwise.
@@ -54,12 +104,14 @@ void run(const KnnCommand& command) {
   if (command.radius) {
     summary = summarize(index->radius(queries, radius));
   } else {
-    summary = summarize(index->knn(queries, command.k));
+    const KnnResult result = index->knn(queries, k);
+    if (!command.out.empty()) write_neighbors(command.out, result, queries.size(), command.k);
+    summary = summarize(result);
   }
   const double ms = query_timer.ms();
   const double queries_per_s = ms > 0 ? static_cast<double>(queries.size()) / (ms / 1000) : 0.0;
 
-  if (command.json) {
+  if (command.json.wanted()) {
     nlohmann::ordered_json object;
     object["points"] = input.points.size();
     object["queries"] = queries.size();
@@ -93,8 +145,8 @@ void run(const KnnCommand& command) {
         object["top_depth"] = stats.top_depth;
       }
     }
-    print_json(object);
-    return;
+    cli::emit_json(command.json, object);
+    if (command.json.print) return;
   }
   fmt::print("splitray knn: {} over {} ({} points{})\n", index->name(), command.input,
              input.points.size(), input.mesh ? ", surface samples" : "");
@@ -121,14 +173,21 @@ void add_knn_command(CLI::App& app) {
   CLI::App* sub = app.add_subcommand(
       "knn", "k-nearest or radius search over a point file or a mesh's surface samples");
   sub->add_option("INPUT", command->input,
-                  "Points (*.ply without faces, *.xyz/*.txt/*.pts: x y z per line) or a mesh "
-                  "(any format of render, also *.gz) sampled area-weighted")
+                  "Points (*.ply without faces, *.xyz/*.txt/*.pts: x y z per line, *.npy: N x 3 "
+                  "floats) or a mesh (any format of render, also *.gz) sampled area-weighted")
       ->required();
   sub->add_option("--k", command->k, "Neighbours per query (k-nearest search)");
   sub->add_option("--queries", command->queries,
                   "Query count: surface samples of the mesh (or jittered input points), from "
                   "--seed on a stream of their own");
   sub->add_option("--seed", command->seed, "Seed of the samples and queries");
+  sub->add_option("--queries-in", command->queries_in,
+                  "Your own queries instead: a NumPy .npy file of N x 3 floats (float32 or "
+                  "float64)");
+  sub->add_option("--out", command->out,
+                  "Write the k nearest of every query to this .npz: indices (N x K int64, -1 "
+                  "where the input has fewer than K points) and distances (N x K float32, "
+                  "Euclidean, inf where fewer), nearest first");
   sub->add_option("--radius", command->radius,
                   "Radius search instead: every point within this distance (<=), sorted");
   sub->add_option("--samples", command->samples, "Points sampled from a mesh's surface")
@@ -160,9 +219,9 @@ void add_knn_command(CLI::App& app) {
                   "VVH/SAH cell expansion (0: --radius, else 1e-4 of the bounding-box diagonal)");
   sub->add_option("--threads", command->threads, "Worker threads (0 = all cores)")
       ->check(CLI::NonNegativeNumber);
-  sub->add_flag(
-      "--json", command->json,
-      "Print one JSON object: points, queries, k (null for --radius), build_ms, ms, "
+  cli::add_json_options(
+      *sub, command->json,
+      "points, queries, k (null for --radius), build_ms, ms, "
       "queries_per_s, neighbor_checksum, dist_sum, mean_dist, builder, radius (with "
       "--radius), neighbors, input, sampled, seed, leaf_size, threads, load_ms, and for "
       "our trees vvh_radius, vvh_cost, nodes, leaves, max_depth, bytes (and inference_ms, "

@@ -1,11 +1,13 @@
-// splitray render [SCENE] -o FILE.png: Whitted ray tracing of a mesh, a JSON scene or the
-// built-in default scene, with a progress bar on a terminal and a summary at the end.
+// splitray render [SCENE] -o FILE.png|.exr|.pfm: Whitted ray tracing (or the hybrid renderer)
+// of a mesh, a JSON or BART scene or the built-in default scene, with progress on stderr and a
+// summary at the end.
 #include <fmt/core.h>
 
 #include <filesystem>
 #include <memory>
 
 #include "commands.hpp"
+#include "json_output.hpp"
 #include "options.hpp"
 #include "progress.hpp"
 #include "splitray/core/errors.hpp"
@@ -30,18 +32,9 @@ struct RenderCommand {
   int max_depth = 5;
   std::string mode = "whitted";  // or "hybrid" (GPU + CPU, paper 002)
   AccelOptions accel;
-  bool json = false;
+  bool exr_float = false;
+  cli::JsonOutput json;
 };
-
-// Fails before a long render rather than after it when the output cannot be written.
-void check_output_path(const std::string& output) {
-  const std::filesystem::path parent = std::filesystem::path(output).parent_path();
-  std::error_code error;
-  if (!parent.empty() && !std::filesystem::is_directory(parent, error))
-    throw Error(output, "cannot write: folder " + parent.string() + " does not exist");
-  if (std::filesystem::is_directory(output, error))
-    throw Error(output, "cannot write: it is a folder");
-}
 
 // --mode hybrid: the five-pass GPU + CPU renderer in a headless OpenGL context; its ray count
 // is the CPU's rays only. Builds without render_gl and machines without OpenGL 4.5 get an Error.
@@ -64,12 +57,13 @@ RenderResult render_mode(const RenderCommand& command, const Scene& scene, const
 }
 
 void run(const RenderCommand& command) {
-  check_output_path(command.output);
-  ProgressBar bar("render");
+  check_image_path(command.output);  // before any work: a bad name fails at once
+  cli::ProgressBar bar("render");
   bar.status(command.scene.empty() ? "generating the default scene ..." : "loading " + command.scene + " ...");
   const Timer load_timer;
   const Scene scene = command.scene.empty() ? default_scene() : load_scene(command.scene);
   const double load_ms = load_timer.ms();
+  for (const std::string& warning : scene.warnings) cli::warn(warning);
 
   const float default_vfov = scene.camera ? scene.camera->vfov_degrees : Camera{}.vfov_degrees;
   const Camera camera = !command.camera.empty()
@@ -85,34 +79,51 @@ void run(const RenderCommand& command) {
   bar.status(fmt::format("building {} on the scene ...", command.accel.accel));
   options.progress = [&bar](double fraction) { bar.update(fraction); };
   const RenderResult result = render_mode(command, scene, camera, options);
+  bar.status("writing " + command.output);
+  write_image(command.output, result.image, {.exr_float = command.exr_float});
   bar.finish();
-  write_png(command.output, result.image);
+  const std::string warning = coverage_warning(result.coverage, result.lights.size());
+  if (!warning.empty()) cli::warn(warning);
 
   const AccelStats& stats = result.accel_stats;
-  const double mrays_per_s = result.render_ms > 0 ? result.rays / (result.render_ms * 1e3) : 0.0;
+  // Hybrid: the CPU's rays over the CPU pass's time (the GPU traces no rays).
+  const bool hybrid = command.mode == "hybrid";
+  const double ray_ms = hybrid ? result.cpu_ms : result.render_ms;
+  const double mrays_per_s = ray_ms > 0 ? result.rays / (ray_ms * 1e3) : 0.0;
   const int threads = effective_threads(command.accel.build.threads);
   const std::string scene_name = command.scene.empty() ? "default" : command.scene;
-  if (command.json) {
-    print_json({{"scene", scene_name},
-                {"output", command.output},
-                {"width", command.width},
-                {"height", command.height},
-                {"max_depth", command.max_depth},
-                {"mode", command.mode},
-                {"threads", threads},
-                {"triangles", stats.prims},
-                {"accel", stats.accel},
-                {"builder", stats.builder},
-                {"load_ms", load_ms},
-                {"build_ms", stats.build_ms},
-                {"render_ms", result.render_ms},
-                {"rays", result.rays},
-                {"mrays_per_s", mrays_per_s},
-                {"accel_stats", stats_json(stats)}});
-    return;
+  if (command.json.wanted()) {
+    nlohmann::ordered_json object = {{"scene", scene_name},
+                                     {"output", command.output},
+                                     {"width", command.width},
+                                     {"height", command.height},
+                                     {"max_depth", command.max_depth},
+                                     {"mode", command.mode},
+                                     {"threads", threads},
+                                     {"triangles", stats.prims},
+                                     {"accel", stats.accel},
+                                     {"builder", stats.builder},
+                                     {"load_ms", load_ms},
+                                     {"build_ms", stats.build_ms},
+                                     {"render_ms", result.render_ms},
+                                     {"rays", result.rays},
+                                     {"mrays_per_s", mrays_per_s},
+                                     {"lights", result.lights.size()},
+                                     {"lights_fitted", scene.lights_fit_view},
+                                     {"lit_share", result.coverage.probes > 0
+                                                       ? static_cast<double>(result.coverage.lit) /
+                                                             result.coverage.probes
+                                                       : 0.0},
+                                     {"accel_stats", stats_json(stats)}};
+    if (hybrid) {
+      object["gl_renderer"] = result.gl_renderer;
+      object["cpu_ms"] = result.cpu_ms;
+    }
+    cli::emit_json(command.json, object);
+    if (command.json.print) return;
   }
   fmt::print("splitray render: wrote {} ({} x {})\n", command.output, command.width, command.height);
-  print_table({
+  std::vector<std::pair<std::string, std::string>> rows = {
       {"scene", command.scene.empty() ? "built-in default scene" : command.scene},
       {"triangles", std::to_string(stats.prims)},
       {"structure", fmt::format("{}, {:.2f} MiB", structure_name(stats),
@@ -121,8 +132,15 @@ void run(const RenderCommand& command) {
       {"build", fmt::format("{:.1f} ms", stats.build_ms)},
       {"render", fmt::format("{:.1f} ms ({}), {} threads, max depth {}", result.render_ms,
                              command.mode, threads, command.max_depth)},
-      {"rays", fmt::format("{} ({:.2f} Mrays/s)", result.rays, mrays_per_s)},
-  });
+      {"rays", hybrid ? fmt::format("{} on the CPU in {:.1f} ms ({:.2f} Mrays/s)", result.rays,
+                                    result.cpu_ms, mrays_per_s)
+                      : fmt::format("{} ({:.2f} Mrays/s)", result.rays, mrays_per_s)},
+      {"lights", fmt::format("{}{}", result.lights.size(),
+                             scene.lights_fit_view ? " (fitted to the view: the scene has none)"
+                                                   : "")},
+  };
+  if (hybrid) rows.emplace_back("OpenGL", result.gl_renderer);
+  print_table(rows);
 }
 
 }  // namespace
@@ -130,11 +148,16 @@ void run(const RenderCommand& command) {
 void add_render_command(CLI::App& app) {
   auto command = std::make_shared<RenderCommand>();
   CLI::App* sub = app.add_subcommand(
-      "render", "Render a mesh, a JSON scene or the built-in default scene to a PNG");
+      "render",
+      "Render a mesh, a JSON or BART scene or the built-in default scene to PNG, EXR or PFM");
   sub->add_option("SCENE", command->scene,
-                  "Mesh file (OBJ, PLY, STL, OFF, glTF/GLB, COLLADA, MD2, ...; also *.gz) or JSON "
-                  "scene file; without it the built-in default scene");
-  sub->add_option("-o,--output", command->output, "PNG file to write (written atomically)");
+                  "Mesh file (OBJ, PLY, STL, OFF, glTF/GLB, COLLADA, MD2, ...; also *.gz; with its "
+                  "materials and textures), JSON scene file or BART scene (*.aff); without it the "
+                  "built-in default scene");
+  sub->add_option("-o,--output", command->output,
+                  "Image to write (atomically), format by extension: .png (8-bit sRGB), .exr "
+                  "(OpenEXR, linear half; --exr-float: float), .pfm (linear float)");
+  sub->add_flag("--exr-float", command->exr_float, "Write .exr with 32-bit float channels (default: half)");
   sub->add_option("-W,--width", command->width, "Image width in pixels")->check(CLI::Range(1, 16384));
   sub->add_option("-H,--height", command->height, "Image height in pixels")
       ->check(CLI::Range(1, 16384));
@@ -149,7 +172,7 @@ void add_render_command(CLI::App& app) {
                   "(OpenGL 4.5, headless), reflections and shadow boundaries on the CPU")
       ->check(CLI::IsMember({"whitted", "hybrid"}));
   add_accel_options(*sub, command->accel);
-  sub->add_flag("--json", command->json, "Print the summary as one JSON object");
+  cli::add_json_options(*sub, command->json, "the keys of the README's render table");
   sub->callback([command] { run(*command); });
 }
 

@@ -35,7 +35,7 @@ fs::path find_trainer() {
 void run(const std::vector<std::string>& args) {
   const fs::path trainer = find_trainer();
   if (trainer.empty())
-    throw Error("splitray train",
+    throw Error("train",
                 "splitray train needs libtorch: install libtorch-dev (scripts/install-deps.sh) and "
                 "rebuild (no splitray-train program next to splitray or in the build tree)");
   std::vector<std::string> owned{trainer.string()};
@@ -44,17 +44,16 @@ void run(const std::vector<std::string>& args) {
   for (std::string& arg : owned) argv.push_back(arg.data());
   argv.push_back(nullptr);
   const pid_t child = ::fork();
-  if (child < 0) throw Error("splitray train", "cannot start " + trainer.string());
+  if (child < 0) throw Error("train", "cannot start " + trainer.string());
   if (child == 0) {
     ::execv(argv[0], argv.data());
     ::_exit(127);
   }
   int status = 0;
-  if (::waitpid(child, &status, 0) < 0) throw Error("splitray train", "lost " + trainer.string());
+  if (::waitpid(child, &status, 0) < 0) throw Error("train", "lost " + trainer.string());
   if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
-    throw Error("splitray train", trainer.string() + " failed (exit status " +
-                                      std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1) +
-                                      ")");
+    throw Error("train", trainer.string() + " failed (exit status " +
+                             std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1) + ")");
 }
 
 }  // namespace

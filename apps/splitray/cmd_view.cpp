@@ -7,8 +7,10 @@
 #include <memory>
 
 #include "commands.hpp"
+#include "json_output.hpp"
 #include "options.hpp"
 #include "splitray/core/errors.hpp"
+#include "splitray/core/image.hpp"
 #include "splitray/io/frames.hpp"
 #include "splitray/io/mesh_io.hpp"
 #include "splitray/render/default_scene.hpp"
@@ -33,14 +35,12 @@ struct ViewCommand {
   std::string screenshot = "splitray-view.png";
   int exit_after = 0;
   AccelOptions accel;
+  cli::JsonOutput json;
 };
 
 void run(const ViewCommand& command) {
 #if SPLITRAY_HAS_RENDER_GL
-  const std::filesystem::path folder = std::filesystem::path(command.screenshot).parent_path();
-  std::error_code error;
-  if (!folder.empty() && !std::filesystem::is_directory(folder, error))
-    throw Error("--screenshot " + command.screenshot, "folder " + folder.string() + " does not exist");
+  check_image_path(command.screenshot);  // before the window opens
   if (!command.scene.empty() && !command.frames.empty())
     throw Error("--frames", "give either a SCENE or --frames, not both");
   ViewerOptions options;
@@ -62,20 +62,35 @@ void run(const ViewCommand& command) {
   if (!command.frames.empty()) {
     if (h.build.builder.empty()) h.build.builder = "golden";  // what the predictions steer
     options.predictor.kind = parse_predictor_kind(command.predictor);
-    fmt::print("splitray view: loading the animation ...\n");
-    options.frames = load_frames(FrameSequence(command.frames));
-    scene = animation_scene(options.frames.front());
+    fmt::print(stderr, "splitray view: loading the animation ...\n");
+    const FrameSequence sequence(command.frames);
+    options.frames = load_frames(sequence);
+    // BART scenes: their materials, lights and camera path; others one flat-shaded mesh.
+    if (auto aff = sequence.scene()) {
+      scene = std::move(*aff);
+      for (std::size_t i = 0; i < options.frames.size(); ++i)
+        options.frame_cameras.push_back(*sequence.camera(i));
+    } else {
+      scene = animation_scene(options.frames.front());
+    }
   } else {
     scene = command.scene.empty() ? default_scene() : load_scene(command.scene);
   }
+  for (const std::string& warning : scene.warnings) cli::warn(warning);
   if (!command.camera.empty()) {
     const float vfov = scene.camera ? scene.camera->vfov_degrees : Camera{}.vfov_degrees;
     options.camera = to_camera(parse_camera(command.camera), vfov);
   }
-  run_viewer(scene, options);
+  const ViewerSummary summary = run_viewer(scene, options);
+  cli::emit_json(command.json, {{"frames_shown", summary.frames},
+                                {"fps", summary.fps},
+                                {"gl_renderer", summary.gl_renderer},
+                                {"triangles", summary.triangles},
+                                {"lights", summary.lights},
+                                {"screenshot", options.exit_after > 0 ? command.screenshot : ""}});
 #else
   (void)command;
-  throw Error("splitray view", "this splitray was built without OpenGL (SPLITRAY_WITH_GL=OFF)");
+  throw Error("view", "this splitray was built without OpenGL (SPLITRAY_WITH_GL=OFF)");
 #endif
 }
 
@@ -94,27 +109,36 @@ void add_view_command(CLI::App& app) {
                   "default scene");
   sub->add_option("--frames", command->frames,
                   "An animation (files, glob, printf pattern, folder, MD2 or BART .aff) played "
-                  "with predicted kd rebuilds every frame");
+                  "with predicted kd rebuilds every frame (BART scenes along their camera path "
+                  "until the camera is moved)");
   sub->add_option("--predictor", command->predictor, "Split predictor of the animation's rebuilds")
       ->check(CLI::IsMember({"kalman", "wiener", "none"}));
-  sub->add_option("-W,--width", command->width, "Window width in pixels")->check(CLI::Range(16, 8192));
-  sub->add_option("-H,--height", command->height, "Window height in pixels")->check(CLI::Range(16, 8192));
+  sub->add_option("-W,--width", command->width, "Window width in pixels")
+      ->check(CLI::Range(16, 8192));
+  sub->add_option("-H,--height", command->height, "Window height in pixels")
+      ->check(CLI::Range(16, 8192));
   add_camera_option(*sub, command->camera)
       ->description("Start camera EX,EY,EZ,TX,TY,TZ[,FOV] (default: the scene's, or framed)");
   sub->add_option("-d,--max-depth", command->max_depth, "Reflection and refraction bounces")
       ->check(CLI::Range(0, 64));
-  sub->add_option("--blur-kernel", command->blur_kernel, "K of the KxK blur marking shadow boundaries (odd)");
+  sub->add_option("--blur-kernel", command->blur_kernel,
+                  "K of the KxK blur marking shadow boundaries (odd)");
   sub->add_option("--shadow-map-size", command->shadow_map_size, "Shadow map texels per side");
   sub->add_flag("--no-refine", command->no_refine, "Start with shadow-boundary refinement off");
-  sub->add_flag("--no-reflections", command->no_reflections, "Start with reflection/refraction rays off");
+  sub->add_flag("--no-reflections", command->no_reflections,
+                "Start with reflection/refraction rays off");
   sub->add_flag("--sequential", command->sequential, "Start with the passes strictly in sequence");
   sub->add_flag("--no-overlay", command->no_overlay, "Start without the text overlay");
-  sub->add_option("--screenshot", command->screenshot,
-                  "PNG the screenshot key writes (atomically; the rendered frame without overlay)");
+  sub->add_option(
+      "--screenshot", command->screenshot,
+      "Image the screenshot key writes (atomically; the rendered frame without overlay; "
+      ".png, .exr or .pfm)");
   sub->add_option("--exit-after", command->exit_after,
                   "Show this many frames, write the last one to --screenshot and exit (tests)")
       ->check(CLI::NonNegativeNumber);
   add_accel_options(*sub, command->accel);
+  cli::add_json_options(*sub, command->json,
+                        "at exit: frames_shown, fps, gl_renderer, triangles, lights, screenshot");
   sub->callback([command] { run(*command); });
 }
 

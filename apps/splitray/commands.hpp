@@ -13,5 +13,6 @@ void add_knn_command(CLI::App& app);
 void add_animate_command(CLI::App& app);
 void add_view_command(CLI::App& app);
 void add_train_command(CLI::App& app);
+void add_completion_command(CLI::App& app);  // hidden: the bash completion script
 
 }  // namespace splitray::app

@@ -24,7 +24,7 @@ int main(int argc, char** argv) {
       "splitray: spatial subdivision hierarchies (SAH kd-trees and friends) and a CPU ray "
       "tracer.\nRun 'splitray COMMAND --help' for the options of a command.",
       "splitray"};
-  app.set_version_flag("--version", SPLITRAY_VERSION);
+  app.set_version_flag("-V,--version", "splitray " SPLITRAY_VERSION, "Print the version and exit");
   app.require_subcommand(1);
   app.option_defaults()->always_capture_default();
   app.footer("Errors are printed as 'splitray: <message>' with exit code 1; usage errors exit "
@@ -38,6 +38,7 @@ int main(int argc, char** argv) {
   splitray::app::add_animate_command(app);
   splitray::app::add_view_command(app);
   splitray::app::add_train_command(app);
+  splitray::app::add_completion_command(app);
 
   try {
     // Name an unknown command rather than only saying that a command is required.

@@ -252,13 +252,21 @@ std::vector<std::pair<std::string, std::string>> stats_rows(const AccelStats& st
   return rows;
 }
 
-void print_json(const nlohmann::ordered_json& object) { std::cout << object.dump(2) << std::endl; }
-
 void print_table(const std::vector<std::pair<std::string, std::string>>& rows) {
   std::size_t width = 0;
   for (const auto& row : rows) width = std::max(width, row.first.size());
   for (const auto& [key, value] : rows) fmt::print("{:<{}}  {}\n", key, width, value);
   std::fflush(stdout);
+}
+
+void check_output_path(const std::string& path, const std::string& extension) {
+  if (!ends_with_icase(path, extension))
+    throw Error(path, "the output must be a " + extension + " file");
+  const std::filesystem::path parent = std::filesystem::path(path).parent_path();
+  std::error_code error;
+  if (!parent.empty() && !std::filesystem::is_directory(parent, error))
+    throw Error(path, "cannot write: folder " + parent.string() + " does not exist");
+  if (std::filesystem::is_directory(path, error)) throw Error(path, "cannot write: it is a folder");
 }
 
 int effective_threads(int threads) { return threads > 0 ? threads : hardware_threads(); }

@@ -45,12 +45,14 @@ Geometry load_geometry(const std::string& path);
 // Every field of AccelStats; sah_cost is null when the structure has none.
 nlohmann::ordered_json stats_json(const AccelStats& stats);
 
-// Prints one JSON object (2-space indented) and a newline to stdout.
-void print_json(const nlohmann::ordered_json& object);
 // Prints "key   value" lines with the values aligned.
 void print_table(const std::vector<std::pair<std::string, std::string>>& rows);
 // The rows of print_table for AccelStats, in the order and with the names of stats_json.
 std::vector<std::pair<std::string, std::string>> stats_rows(const AccelStats& stats);
+
+// Error(path, ...) before any work when `path` does not end in `extension` (any case), its
+// folder does not exist or it is a folder.
+void check_output_path(const std::string& path, const std::string& extension);
 
 // The worker count `--threads T` stands for (0 = all cores).
 int effective_threads(int threads);

@@ -1,6 +1,17 @@
 #include "splitray/core/image.hpp"
 
+#include <Imath/half.h>
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfOutputFile.h>
 #include <stb/stb_image_write.h>
+
+#include <algorithm>
+#include <bit>
+#include <cctype>
+#include <cstring>
+#include <vector>
 
 #include <cmath>
 #include <cstdio>
@@ -53,6 +64,98 @@ void write_png(const std::string& path, const Image& image) {
     throw Error(path, "cannot write the PNG file (does the folder exist and is it writable?)");
   }
   rename_into_place(tmp, path);
+}
+
+ImageFormat check_image_path(const std::string& path) {
+  std::string extension = std::filesystem::path(path).extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  ImageFormat format;
+  if (extension == ".png")
+    format = ImageFormat::png;
+  else if (extension == ".exr")
+    format = ImageFormat::exr;
+  else if (extension == ".pfm")
+    format = ImageFormat::pfm;
+  else
+    throw Error(path, (extension.empty() ? std::string("no extension")
+                                         : "unknown image format '" + extension + "'") +
+                          ": use .png (8-bit sRGB), .exr (OpenEXR, linear half or float) or "
+                          ".pfm (portable float map, linear)");
+  const std::filesystem::path parent = std::filesystem::path(path).parent_path();
+  std::error_code error;
+  if (!parent.empty() && !std::filesystem::is_directory(parent, error))
+    throw Error(path, "cannot write: folder " + parent.string() + " does not exist");
+  if (std::filesystem::is_directory(path, error)) throw Error(path, "cannot write: it is a folder");
+  return format;
+}
+
+namespace {
+
+// OpenEXR through its own writer (scanlines, ZIP compression) into the temporary file.
+void write_exr(const std::string& path, const Image& image, bool full_float) {
+  const std::string tmp = temporary_name(path);
+  try {
+    const Imf::PixelType type = full_float ? Imf::FLOAT : Imf::HALF;
+    Imf::Header header(image.width, image.height);
+    for (const char* c : {"R", "G", "B"}) header.channels().insert(c, Imf::Channel(type));
+    Imf::OutputFile file(tmp.c_str(), header);
+    Imf::FrameBuffer buffer;
+    std::vector<Imath::half> halves;  // the pixels rounded to half, when the channels are half
+    const char* base = reinterpret_cast<const char*>(image.pixels.data());
+    std::size_t pixel = sizeof(Vec3), component = sizeof(float);
+    if (!full_float) {
+      for (const Vec3& p : image.pixels) halves.insert(halves.end(), {p.x, p.y, p.z});
+      base = reinterpret_cast<const char*>(halves.data());
+      pixel = 3 * sizeof(Imath::half);
+      component = sizeof(Imath::half);
+    }
+    const std::size_t row = pixel * static_cast<std::size_t>(image.width);
+    for (int c = 0; c < 3; ++c)
+      buffer.insert(std::string(1, "RGB"[c]),
+                    Imf::Slice(type, const_cast<char*>(base + c * component), pixel, row));
+    file.setFrameBuffer(buffer);
+    file.writePixels(image.height);
+  } catch (const std::exception& e) {
+    std::error_code ec;
+    std::filesystem::remove(tmp, ec);
+    throw Error(path, std::string("cannot write the OpenEXR file: ") + e.what());
+  }
+  rename_into_place(tmp, path);
+}
+
+// PFM: "PF", width and height, a negative scale for little-endian, then float RGB rows from
+// the bottom row up.
+std::string pfm_bytes(const Image& image) {
+  std::string out = "PF\n" + std::to_string(image.width) + " " + std::to_string(image.height) +
+                    "\n-1.0\n";
+  const std::size_t header = out.size();
+  out.resize(header + image.pixels.size() * 12);
+  char* p = out.data() + header;
+  for (int y = image.height - 1; y >= 0; --y)
+    for (int x = 0; x < image.width; ++x)
+      for (int c = 0; c < 3; ++c) {
+        std::uint32_t bits = std::bit_cast<std::uint32_t>(image.at(x, y)[c]);
+        if constexpr (std::endian::native == std::endian::big) bits = __builtin_bswap32(bits);
+        std::memcpy(p, &bits, 4);
+        p += 4;
+      }
+  return out;
+}
+
+}  // namespace
+
+void write_image(const std::string& path, const Image& image, const ImageWriteOptions& options) {
+  const ImageFormat format = check_image_path(path);
+  if (image.width <= 0 || image.height <= 0) throw Error(path, "cannot write an empty image");
+  switch (format) {
+    case ImageFormat::png:
+      return write_png(path, image);
+    case ImageFormat::exr:
+      return write_exr(path, image, options.exr_float);
+    case ImageFormat::pfm:
+      return write_file_atomically(path, pfm_bytes(image));
+  }
 }
 
 void write_file_atomically(const std::string& path, const std::string& bytes) {

@@ -1,6 +1,7 @@
 #pragma once
-// Float RGB image (linear radiance) with PNG output.
+// Float RGB image (linear radiance) with PNG, OpenEXR and PFM output, chosen by extension.
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "splitray/core/vec.hpp"
@@ -23,6 +24,21 @@ struct Image {
 // Writes the image as PNG through a temporary file renamed into place, so that a failed
 // write leaves no partial file. Throws Error(path, ...) on failure.
 void write_png(const std::string& path, const Image& image);
+
+// The image files splitray writes, by extension (any case): .png 8-bit sRGB (clamped),
+// .exr OpenEXR with linear RGB as half (default) or 32-bit float channels, .pfm the portable
+// float map (linear 32-bit float RGB, little-endian, rows bottom to top).
+enum class ImageFormat { png, exr, pfm };
+struct ImageWriteOptions {
+  bool exr_float = false;  // .exr: 32-bit float channels instead of half
+};
+// The format of `path`, or Error(path, ...) naming the formats when its extension is none of
+// them; also an Error when its folder does not exist or it is a folder. Meant to be called
+// before any work, so that a bad output name fails at once and writes nothing.
+ImageFormat check_image_path(const std::string& path);
+// Writes `image` in the format of its extension, atomically as write_png.
+void write_image(const std::string& path, const Image& image,
+                 const ImageWriteOptions& options = {});
 
 // Writes bytes to `path` atomically (temporary file in the same folder, then rename).
 void write_file_atomically(const std::string& path, const std::string& bytes);

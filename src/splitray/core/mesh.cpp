@@ -29,6 +29,15 @@ void Mesh::validate(const std::string& where) const {
                                " but there are only " + std::to_string(positions.size()));
   if (!normals.empty() && normals.size() != positions.size())
     throw Error(where, "normal count differs from vertex count");
+  if (!uvs.empty() && uvs.size() != positions.size())
+    throw Error(where, "texture coordinate count differs from vertex count");
+  if (face_materials.size() != (materials.empty() ? 0 : faces.size()))
+    throw Error(where, "per-face material count differs from the face count");
+  for (std::size_t f = 0; f < face_materials.size(); ++f)
+    if (face_materials[f] >= materials.size())
+      throw Error(where, "face " + std::to_string(f) + " names material " +
+                             std::to_string(face_materials[f]) + " of " +
+                             std::to_string(materials.size()));
 }
 
 void Mesh::compute_vertex_normals() {

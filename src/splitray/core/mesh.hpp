@@ -5,6 +5,8 @@
 #include <string>
 #include <vector>
 
+#include "splitray/core/material.hpp"
+#include "splitray/core/texture.hpp"
 #include "splitray/core/triangle.hpp"
 
 namespace splitray {
@@ -14,6 +16,11 @@ struct Mesh {
   std::vector<Vec3> positions;
   std::vector<Vec3> normals;  // per vertex, empty or positions.size(); shading only
   std::vector<std::array<std::uint32_t, 3>> faces;
+  std::vector<Vec2> uvs;  // per vertex, empty or positions.size(); texture coordinates
+  // The file's own materials and each face's index into them; both empty when the file has
+  // none (the scene's default material is used).
+  std::vector<Material> materials;
+  std::vector<std::uint32_t> face_materials;
 
   std::size_t triangle_count() const { return faces.size(); }
   Triangle triangle(std::size_t f) const {
@@ -22,7 +29,8 @@ struct Mesh {
   }
   Aabb bounds() const;
   std::vector<Triangle> triangles() const;
-  // Throws Error(where, ...) on out-of-range indices, non-finite coordinates or no faces.
+  // Throws Error(where, ...) on out-of-range indices, non-finite coordinates, no faces, or
+  // per-vertex and per-face arrays of the wrong size.
   void validate(const std::string& where) const;
   // Area-weighted per-vertex normals (used when a file has none).
   void compute_vertex_normals();

@@ -18,9 +18,9 @@ void Scene::validate(const std::string& where) const {
     if (instances[i].mesh >= meshes.size())
       throw Error(where, "instance " + std::to_string(i) + " names mesh " +
                              std::to_string(instances[i].mesh) + " of " + std::to_string(meshes.size()));
-    if (instances[i].material >= materials.size())
+    if (instances[i].material && *instances[i].material >= materials.size())
       throw Error(where, "instance " + std::to_string(i) + " names material " +
-                             std::to_string(instances[i].material) + " of " +
+                             std::to_string(*instances[i].material) + " of " +
                              std::to_string(materials.size()));
   }
   for (const Mesh& mesh : meshes) mesh.validate(where + " (mesh '" + mesh.name + "')");
@@ -28,6 +28,12 @@ void Scene::validate(const std::string& where) const {
 
 FlatScene flatten(const Scene& scene) {
   FlatScene flat;
+  flat.materials = scene.materials;
+  std::vector<std::uint32_t> first_material;  // of each mesh's own materials in flat.materials
+  for (const Mesh& mesh : scene.meshes) {
+    first_material.push_back(static_cast<std::uint32_t>(flat.materials.size()));
+    flat.materials.insert(flat.materials.end(), mesh.materials.begin(), mesh.materials.end());
+  }
   for (const Instance& inst : scene.instances) {
     const Mesh& mesh = scene.meshes[inst.mesh];
     for (std::size_t f = 0; f < mesh.faces.size(); ++f) {
@@ -36,12 +42,18 @@ FlatScene flatten(const Scene& scene) {
                    inst.transform.point(mesh.positions[idx[1]]),
                    inst.transform.point(mesh.positions[idx[2]])};
       std::array<Vec3, 3> normals;
+      std::array<Vec2, 3> uvs{};
       const Vec3 geometric = normalize(tri.geometric_normal());
       for (int k = 0; k < 3; ++k)
         normals[k] = mesh.normals.empty() ? geometric : inst.transform.normal(mesh.normals[idx[k]]);
+      if (!mesh.uvs.empty())
+        for (int k = 0; k < 3; ++k) uvs[k] = mesh.uvs[idx[k]];
       flat.triangles.push_back(tri);
-      flat.material.push_back(inst.material);
+      flat.material.push_back(inst.material           ? *inst.material
+                              : mesh.materials.empty() ? 0
+                                                       : first_material[inst.mesh] + mesh.face_materials[f]);
       flat.vertex_normals.push_back(normals);
+      flat.uvs.push_back(uvs);
     }
   }
   return flat;
@@ -52,13 +64,8 @@ Scene scene_from_mesh(Mesh mesh) {
   const Aabb box = mesh.bounds();
   scene.meshes.push_back(std::move(mesh));
   scene.instances.push_back(Instance{});
-  Camera cam = Camera::frame(box);
-  scene.camera = cam;
-  Light light;
-  light.kind = Light::Kind::point;
-  light.position = cam.eye + (cam.eye - cam.target) * 0.3f + Vec3{0, length(box.extent()), 0};
-  light.intensity = dot(light.position - cam.target, light.position - cam.target);
-  scene.lights.push_back(light);
+  scene.camera = Camera::frame(box);
+  scene.lights_fit_view = true;
   return scene;
 }
 

@@ -141,6 +141,7 @@ struct Keyframes {
 
 struct AnimTriangle {
   int node;
+  std::uint32_t material;
   std::vector<std::pair<double, Triangle>> keys;  // ascending times, linear in between
 };
 
@@ -156,7 +157,17 @@ struct AffScene::Data {
   std::map<std::string, Keyframes> keyframes;
   std::vector<Triangle> triangles;  // local space
   std::vector<int> triangle_node;
+  std::vector<std::uint32_t> triangle_material;
   std::vector<AnimTriangle> animated;
+  std::vector<Material> materials{Material{}};  // 0: before any f / fm
+  std::uint32_t current_material = 0;
+  std::vector<Light> lights;
+  std::optional<Vec3> background, ambient;
+  struct View {
+    Vec3 from{0, 0, 1}, at{0, 0, 0}, up{0, 1, 0};
+    float angle = 45;
+  };
+  std::optional<View> view;
 };
 
 namespace {
@@ -263,6 +274,7 @@ class Parser {
       lex.fail("too many triangles");
     data_.triangles.push_back(t);
     data_.triangle_node.push_back(node);
+    data_.triangle_material.push_back(data_.current_material);
   }
 
   // Statements until the end of the file, or until `}` when `braced`.
@@ -284,14 +296,15 @@ class Parser {
 
   void statement(Lexer& lex, const std::string& t, int node, int depth) {
     if (t == "v") return view(lex);
-    if (t == "b" || t == "am") return skip_numbers(lex, 3, t.c_str());
+    if (t == "b") return void(data_.background = colour(lex, "background colour"));
+    if (t == "am") return void(data_.ambient = colour(lex, "ambient colour"));
     if (t == "l") return light(lex);
     if (t == "la") {
       lex.word("light name");
       return light(lex);
     }
-    if (t == "f") return skip_numbers(lex, 8, "material");
-    if (t == "fm") return skip_numbers(lex, 12, "material");
+    if (t == "f") return fill(lex, false);
+    if (t == "fm") return fill(lex, true);
     if (t == "a") {
       animation_.start = lex.number("animation start");
       animation_.end = lex.number("animation end");
@@ -350,13 +363,51 @@ class Parser {
     for (int i = 0; i < n; ++i) lex.number(what);
   }
 
+  static Vec3 colour(Lexer& lex, const char* what) {
+    const Vec3 c = lex.vec3(what);
+    if (c.x < 0 || c.y < 0 || c.z < 0) lex.fail(std::string("a negative ") + what);
+    return c;
+  }
+
+  // f R G B Kd Ks Shine T ior (NFF) or fm ambient(3) diffuse(3) specular(3) Shine T ior.
+  void fill(Lexer& lex, bool extended) {
+    Material m;
+    if (extended) {
+      m.ambient = colour(lex, "ambient colour");
+      m.diffuse = colour(lex, "diffuse colour");
+      m.specular = colour(lex, "specular colour");
+    } else {
+      const Vec3 c = colour(lex, "colour");
+      const double kd = lex.number("Kd"), ks = lex.number("Ks");
+      if (kd < 0 || ks < 0) lex.fail("negative Kd or Ks");
+      m.diffuse = c * static_cast<float>(kd);
+      m.specular = Vec3{static_cast<float>(ks)};
+    }
+    const double shine = lex.number("Shine"), t = lex.number("transmittance"),
+                 ior = lex.number("index of refraction");
+    if (!(t >= 0 && t <= 1)) lex.fail("the transmittance must lie in [0, 1]");
+    m.shininess = static_cast<float>(std::clamp(shine, 1.0, 1e6));
+    m.transparency = static_cast<float>(t);
+    m.ior = ior >= 1e-3 && ior <= 100 ? static_cast<float>(ior) : 1.0f;
+    m.name = "aff " + std::to_string(data_.materials.size());
+    data_.materials.push_back(m);
+    data_.current_material = static_cast<std::uint32_t>(data_.materials.size() - 1);
+  }
+
   void view(Lexer& lex) {
+    AffScene::Data::View v;
     for (;;) {
       const std::string w = lex.peek();
       if (w == "from" || w == "at" || w == "up") {
         lex.accept(w);
-        lex.vec3(w.c_str());
-      } else if (w == "angle" || w == "hither") {
+        const Vec3 value = lex.vec3(w.c_str());
+        (w == "from" ? v.from : w == "at" ? v.at : v.up) = value;
+      } else if (w == "angle") {
+        lex.accept(w);
+        const double angle = lex.number("angle");
+        if (!(angle > 0 && angle < 180)) lex.fail("the view angle must lie in (0, 180) degrees");
+        v.angle = static_cast<float>(angle);
+      } else if (w == "hither") {
         lex.accept(w);
         lex.number(w.c_str());
       } else if (w == "resolution") {
@@ -364,21 +415,24 @@ class Parser {
         lex.count("resolution", 1 << 16);
         lex.count("resolution", 1 << 16);
       } else {
+        if (v.from == v.at) lex.fail("the view's from and at are the same point");
+        data_.view = v;
         return;
       }
     }
   }
 
   void light(Lexer& lex) {
-    lex.vec3("light position");
-    // An optional colour: up to three more numbers on the statement.
-    for (int i = 0; i < 3; ++i) {
-      const std::string w = lex.peek();
-      char* end = nullptr;
-      std::strtod(w.c_str(), &end);
-      if (w.empty() || end != w.c_str() + w.size()) return;
-      lex.number("light colour");
-    }
+    Light light;
+    light.kind = Light::Kind::point;
+    light.falloff = false;
+    light.position = lex.vec3("light position");
+    // An optional colour: three more numbers on the statement.
+    const std::string w = lex.peek();
+    char* end = nullptr;
+    std::strtod(w.c_str(), &end);
+    if (!w.empty() && end == w.c_str() + w.size()) light.color = colour(lex, "light colour");
+    data_.lights.push_back(light);
   }
 
   void polygon(Lexer& lex, int node, bool normals) {
@@ -485,6 +539,7 @@ class Parser {
     if (n < 1) lex.fail("an animated triangle needs at least one key");
     AnimTriangle a;
     a.node = node;
+    a.material = data_.current_material;
     for (std::size_t i = 0; i < n; ++i) {
       const double time = lex.number("key time");
       if (!a.keys.empty() && !(time > a.keys.back().first))
@@ -613,6 +668,64 @@ std::vector<Triangle> AffScene::triangles_at(double t) const {
     out.push_back({m.apply(tri.v0), m.apply(tri.v1), m.apply(tri.v2)});
   }
   return out;
+}
+
+std::optional<Camera> AffScene::camera_at(double t) const {
+  const Data& d = *data_;
+  if (!d.view) return std::nullopt;
+  Camera camera;
+  camera.eye = d.view->from;
+  camera.target = d.view->at;
+  camera.up = d.view->up;
+  camera.vfov_degrees = d.view->angle;
+  if (const auto k = d.keyframes.find("camera"); k != d.keyframes.end()) {
+    const Affine m = k->second.at(t);
+    if (!k->second.translation.keys.empty())
+      camera.eye = {static_cast<float>(m.m[0][3]), static_cast<float>(m.m[1][3]),
+                    static_cast<float>(m.m[2][3])};
+    Vec3 direction = normalize(camera.target - d.view->from);
+    if (!k->second.rotation.keys.empty()) {
+      direction = normalize(Vec3{static_cast<float>(-m.m[0][2]), static_cast<float>(-m.m[1][2]),
+                                 static_cast<float>(-m.m[2][2])});
+      camera.up = {static_cast<float>(m.m[0][1]), static_cast<float>(m.m[1][1]),
+                   static_cast<float>(m.m[2][1])};
+    }
+    camera.target = camera.eye + direction;
+  }
+  if (length(cross(normalize(camera.target - camera.eye), normalize(camera.up))) < 1e-4f)
+    camera.up = std::abs(camera.up.y) < 0.9f ? Vec3{0, 1, 0} : Vec3{0, 0, 1};
+  return camera;
+}
+
+Scene AffScene::scene_at(double t) const {
+  const Data& d = *data_;
+  Scene scene;
+  Mesh mesh;
+  mesh.name = "aff";
+  const std::vector<Triangle> triangles = triangles_at(t);
+  mesh.positions.reserve(triangles.size() * 3);
+  for (const Triangle& tri : triangles) {
+    const auto base = static_cast<std::uint32_t>(mesh.positions.size());
+    for (int k = 0; k < 3; ++k) mesh.positions.push_back(tri.vertex(k));
+    mesh.faces.push_back({base, base + 1, base + 2});
+  }
+  mesh.materials = d.materials;
+  mesh.face_materials = d.triangle_material;
+  for (const AnimTriangle& a : d.animated) mesh.face_materials.push_back(a.material);
+  scene.meshes.push_back(std::move(mesh));
+  scene.instances.push_back(Instance{});
+  scene.lights = d.lights;
+  scene.lights_fit_view = d.lights.empty();
+  if (d.background) scene.background = *d.background;
+  if (d.ambient) scene.ambient = *d.ambient;
+  scene.camera = camera_at(t);
+  if (!scene.camera) scene.camera = Camera::frame(scene.bounds());
+  return scene;
+}
+
+Scene load_aff_scene(const std::string& path) {
+  const AffScene aff = AffScene::load(path);
+  return aff.scene_at(aff.animation().frames > 0 ? aff.animation().start : 0.0);
 }
 
 }  // namespace splitray

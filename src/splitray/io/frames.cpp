@@ -169,18 +169,29 @@ FrameSequence::~FrameSequence() = default;
 FrameSequence::FrameSequence(FrameSequence&&) noexcept = default;
 FrameSequence& FrameSequence::operator=(FrameSequence&&) noexcept = default;
 
+double FrameSequence::aff_time(std::size_t frame) const {
+  const double n = static_cast<double>(size());
+  return n > 1 ? aff_start_ + (aff_end_ - aff_start_) * static_cast<double>(frame) / (n - 1)
+               : aff_start_;
+}
+
+std::optional<Camera> FrameSequence::camera(std::size_t frame) const {
+  if (kind_ != Kind::aff || frame >= size()) return std::nullopt;
+  return aff_->camera_at(aff_time(frame));
+}
+
+std::optional<Scene> FrameSequence::scene() const {
+  if (kind_ != Kind::aff) return std::nullopt;
+  return aff_->scene_at(aff_time(0));
+}
+
 std::vector<Triangle> FrameSequence::load(std::size_t frame) const {
   if (frame >= size()) throw Error(source_, "frame " + std::to_string(frame) + " does not exist");
   switch (kind_) {
     case Kind::md2:
       return load_md2_frame(source_, static_cast<int>(frame));
-    case Kind::aff: {
-      const double n = static_cast<double>(size());
-      const double t =
-          n > 1 ? aff_start_ + (aff_end_ - aff_start_) * static_cast<double>(frame) / (n - 1)
-                : aff_start_;
-      return aff_->triangles_at(t);
-    }
+    case Kind::aff:
+      return aff_->triangles_at(aff_time(frame));
     case Kind::files:
       break;
   }

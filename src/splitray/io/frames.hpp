@@ -10,9 +10,11 @@
 //   - one BART scene (*.aff): its animation sampled at the frames of its `a` line.
 #include <cstddef>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "splitray/core/scene.hpp"
 #include "splitray/core/triangle.hpp"
 
 namespace splitray {
@@ -35,6 +37,10 @@ class FrameSequence {
   const std::string& label(std::size_t frame) const { return labels_.at(frame); }
   // The triangles of one frame (no count check; see load_frames).
   std::vector<Triangle> load(std::size_t frame) const;
+  // BART scenes: the camera of one frame (the file's view on its camera path) and the scene of
+  // the first frame (materials per triangle, lights, background); empty for other sequences.
+  std::optional<Camera> camera(std::size_t frame) const;
+  std::optional<Scene> scene() const;
 
  private:
   enum class Kind { files, md2, aff };
@@ -43,6 +49,7 @@ class FrameSequence {
   std::vector<std::string> labels_;  // file names, or "file#frame"
   std::unique_ptr<AffScene> aff_;
   double aff_start_ = 0, aff_end_ = 0;
+  double aff_time(std::size_t frame) const;
 };
 
 // The first `max_frames` frames (0 = all), refusing a frame whose triangle count differs

@@ -6,14 +6,17 @@
 
 #include <assimp/Importer.hpp>
 #include <cmath>
+#include <filesystem>
 #include <limits>
 #include <new>
 #include <optional>
 #include <vector>
 
 #include "splitray/core/errors.hpp"
+#include "splitray/io/aff.hpp"
 #include "splitray/io/assimp_buffer_io.hpp"
 #include "splitray/io/format_checks.hpp"
+#include "splitray/io/materials.hpp"
 #include "splitray/io/read_file.hpp"
 #include "splitray/io/scene_json.hpp"
 #include "splitray/io/triangulate.hpp"
@@ -46,7 +49,7 @@ void check_finite(const aiScene& scene, const std::string& path) {
 
 struct Part {
   std::size_t first_vertex, vertex_count, first_face, face_count;
-  bool has_normals;
+  bool has_normals, has_uvs;
 };
 
 // Area-weighted normals for one part's vertices, from that part's faces only.
@@ -101,6 +104,13 @@ class Merger {
   }
 
   std::size_t skipped() const { return skipped_; }
+  // After run(): texture coordinates per vertex (empty when no part has any) and assimp's
+  // material index per face.
+  std::vector<Vec2> uvs() {
+    if (!uvs_.empty()) uvs_.resize(vertex_count_);
+    return std::move(uvs_);
+  }
+  std::vector<std::uint32_t> face_materials() { return std::move(face_materials_); }
 
  private:
   void add(const aiMesh& in, const aiMatrix4x4& world) {
@@ -108,7 +118,8 @@ class Merger {
       throw Error(path_, "more than 2^32 vertices");
     const bool identity = world.IsIdentity();
     const aiMatrix3x3 normal_matrix = aiMatrix3x3(world).Inverse().Transpose();
-    Part part{mesh_.positions.size(), in.mNumVertices, mesh_.faces.size(), 0, in.HasNormals()};
+    Part part{mesh_.positions.size(), in.mNumVertices,       mesh_.faces.size(), 0,
+              in.HasNormals(),        in.HasTextureCoords(0)};
     for (unsigned v = 0; v < in.mNumVertices; ++v) {
       const aiVector3D p = identity ? in.mVertices[v] : world * in.mVertices[v];
       mesh_.positions.push_back({p.x, p.y, p.z});
@@ -126,6 +137,11 @@ class Merger {
           n /= len;
         mesh_.normals[part.first_vertex + v] = {n.x, n.y, n.z};
       }
+    }
+    if (part.has_uvs) {
+      uvs_.resize(mesh_.positions.size());
+      for (unsigned v = 0; v < in.mNumVertices; ++v)
+        uvs_[part.first_vertex + v] = {in.mTextureCoords[0][v].x, in.mTextureCoords[0][v].y};
     }
     const auto base = static_cast<std::uint32_t>(part.first_vertex);
     for (unsigned f = 0; f < in.mNumFaces; ++f) {
@@ -156,6 +172,7 @@ class Merger {
             {base + face.mIndices[t[0]], base + face.mIndices[t[1]], base + face.mIndices[t[2]]});
       part.face_count += local_.size();
     }
+    face_materials_.resize(mesh_.faces.size(), in.mMaterialIndex);
     if (mesh_.faces.size() > kMaxTriangles)
       throw Error(path_, "more than " + std::to_string(kMaxTriangles) +
                              " triangles after applying the node graph");
@@ -168,6 +185,7 @@ class Merger {
   void finish_normals() {
     bool any = false;
     for (const Part& p : parts_) any = any || p.has_normals;
+    vertex_count_ = mesh_.positions.size();
     if (!any) {
       mesh_.normals.clear();
       return;
@@ -182,6 +200,9 @@ class Merger {
   Mesh mesh_;
   std::vector<Part> parts_;
   std::size_t skipped_ = 0;
+  std::size_t vertex_count_ = 0;
+  std::vector<Vec2> uvs_;
+  std::vector<std::uint32_t> face_materials_;
   std::vector<Vec3> corners_;
   std::vector<std::array<std::uint32_t, 3>> local_;
   std::uint64_t work_ = 0;
@@ -222,9 +243,16 @@ const aiScene* import(Assimp::Importer& importer, const std::string& name, unsig
   }
 }
 
+// The file has materials of its own: more than assimp's stand-in for files without any.
+bool has_own_materials(const aiScene& scene) {
+  if (scene.mNumMaterials == 0) return false;
+  return scene.mNumMaterials > 1 ||
+         std::string(scene.mMaterials[0]->GetName().C_Str()) != AI_DEFAULT_MATERIAL_NAME;
+}
+
 }  // namespace
 
-Mesh load_mesh(const std::string& path) {
+Mesh load_mesh(const std::string& path, const MeshLoadOptions& options) {
   const std::string extension = inner_extension(path);
   if (extension.empty())
     throw Error(path, "the file name has no extension, so the mesh format is unknown");
@@ -259,15 +287,41 @@ Mesh load_mesh(const std::string& path) {
             std::to_string(count_triangles(*scene)) +
             " of them (it dropped faces with an index out of range?); refusing a changed mesh");
 
-  Mesh mesh = Merger(*scene, path).run();
+  Merger merger(*scene, path);
+  Mesh mesh = merger.run();
   mesh.name = path;
+  if (options.materials) {
+    mesh.uvs = merger.uvs();
+    if (has_own_materials(*scene)) {
+      std::vector<std::string> ignored;
+      const std::string folder = std::filesystem::path(path).parent_path().string();
+      const std::vector<Material> all =
+          convert_materials(*scene, folder, path, options.warnings ? *options.warnings : ignored);
+      // Only the materials faces use (assimp adds a stand-in first, files list unused ones),
+      // renumbered in order of first use.
+      mesh.face_materials = merger.face_materials();
+      std::vector<std::uint32_t> index(all.size(), kInvalidId);
+      for (std::uint32_t& m : mesh.face_materials) {
+        if (index[m] == kInvalidId) {
+          index[m] = static_cast<std::uint32_t>(mesh.materials.size());
+          mesh.materials.push_back(all[m]);
+        }
+        m = index[m];
+      }
+    }
+  }
   mesh.validate(path);
   return mesh;
 }
 
 Scene load_scene(const std::string& path) {
-  if (inner_extension(path) == "json") return load_json_scene(path);
-  return scene_from_mesh(load_mesh(path));
+  const std::string extension = inner_extension(path);
+  if (extension == "json") return load_json_scene(path);
+  if (extension == "aff") return load_aff_scene(path);
+  std::vector<std::string> warnings;
+  Scene scene = scene_from_mesh(load_mesh(path, {.materials = true, .warnings = &warnings}));
+  scene.warnings = std::move(warnings);
+  return scene;
 }
 
 }  // namespace splitray

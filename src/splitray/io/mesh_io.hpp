@@ -1,19 +1,30 @@
 #pragma once
 // Mesh and scene loading. Every problem is an Error that names the file and the problem.
 #include <string>
+#include <vector>
 
 #include "splitray/core/mesh.hpp"
 #include "splitray/core/scene.hpp"
 
 namespace splitray {
 
+struct MeshLoadOptions {
+  // Also the file's materials, texture coordinates and textures (io/materials.hpp), for
+  // rendering; geometry alone otherwise.
+  bool materials = false;
+  // Where problems that do not stop the load go (a missing texture); null: dropped.
+  std::vector<std::string>* warnings = nullptr;
+};
+
 // Loads every mesh of a file into one (node transforms applied; quads and polygons
 // triangulated) through assimp: OBJ, PLY, STL, OFF, glTF/GLB, COLLADA, MD2 and the rest of
 // assimp's formats. A name ending in .gz is gunzipped in memory first (zlib).
-Mesh load_mesh(const std::string& path);
+Mesh load_mesh(const std::string& path, const MeshLoadOptions& options = {});
 
-// A JSON scene file (*.json: meshes, transforms, materials, lights, camera; see README) or
-// any mesh file, which becomes scene_from_mesh(load_mesh(path)).
+// A JSON scene file (*.json: meshes, transforms, materials, lights, camera; see README), a
+// BART scene (*.aff: its camera, lights and materials at the animation's start), or any mesh
+// file, which becomes scene_from_mesh(load_mesh(path)) with the file's own materials.
+// Problems that do not stop the load are in Scene::warnings.
 Scene load_scene(const std::string& path);
 
 }  // namespace splitray

@@ -309,7 +309,8 @@ Scene load_json_scene(const std::string& path) {
       inst.mesh = it->second;
     } else {
       try {
-        scene.meshes.push_back(load_mesh(resolved));
+        scene.meshes.push_back(
+            load_mesh(resolved, {.materials = true, .warnings = &scene.warnings}));
       } catch (const Error& e) {
         r.fail(key_path(where, "mesh"), e.what());
       }
@@ -340,12 +341,7 @@ Scene load_json_scene(const std::string& path) {
     for (std::size_t i = 0; i < r.array(*v, "lights").size(); ++i)
       scene.lights.push_back(parse_light(r, (*v)[i], index_path("lights", i)));
   } else {
-    // The same light as scene_from_mesh: above and behind the camera.
-    const Camera& cam = *scene.camera;
-    Light light;
-    light.position = cam.eye + (cam.eye - cam.target) * 0.3f + Vec3{0, length(box.extent()), 0};
-    light.intensity = dot(light.position - cam.target, light.position - cam.target);
-    scene.lights.push_back(light);
+    scene.lights_fit_view = true;  // lit for the camera's view once it is known
   }
   scene.validate(path);
   return scene;

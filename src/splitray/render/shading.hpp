@@ -3,6 +3,7 @@
 // specular with shininess, as in the fragment shader of paper 002), point lights with 1/d^2
 // falloff, directional lights, Snell refraction and Schlick's Fresnel term.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <optional>
 
@@ -30,23 +31,31 @@ inline LightSample sample_light(const Light& light, const Vec3& p) {
   const float d2 = std::max(dot(d, d), 1e-12f);
   s.distance = std::sqrt(d2);
   s.to_light = d / s.distance;
-  s.radiance = light.color * (light.intensity / d2);
+  s.radiance = light.color * (light.falloff ? light.intensity / d2 : light.intensity);
   return s;
 }
 
 // Diffuse + specular of one light at a point with shading normal n (unit, facing the viewer),
-// `to_eye` unit. `diffuse_share` scales the diffuse term (1 - reflectivity - transparency).
-inline Vec3 phong(const Material& m, float diffuse_share, const Vec3& n, const Vec3& to_eye,
-                  const LightSample& light) {
+// `to_eye` unit, `diffuse` the material's diffuse colour there (Material::diffuse_at).
+// `diffuse_share` scales the diffuse term (1 - reflectivity - transparency).
+inline Vec3 phong(const Material& m, const Vec3& diffuse, float diffuse_share, const Vec3& n,
+                  const Vec3& to_eye, const LightSample& light) {
   const float n_dot_l = dot(n, light.to_light);
   if (n_dot_l <= 0) return Vec3{0};
-  Vec3 c = m.diffuse * (diffuse_share * n_dot_l);
+  Vec3 c = diffuse * (diffuse_share * n_dot_l);
   if (m.specular != Vec3{0}) {
     const Vec3 h = normalize(light.to_light + to_eye);
     const float n_dot_h = std::max(dot(n, h), 0.0f);
     c += m.specular * std::pow(n_dot_h, m.shininess);
   }
   return c * light.radiance;
+}
+
+// The texture coordinates of a hit from its triangle's vertex coordinates (barycentrics u of
+// vertex 1, v of vertex 2).
+inline Vec2 hit_uv(const std::array<Vec2, 3>& uv, float u, float v) {
+  const float w = 1 - u - v;
+  return {uv[0].x * w + uv[1].x * u + uv[2].x * v, uv[0].y * w + uv[1].y * u + uv[2].y * v};
 }
 
 // The share of light the Phong diffuse term carries for a material.

@@ -23,9 +23,15 @@ constexpr int kMaxShadowCrossings = 16;
 // image is the same for every thread count and tile order.
 class Tracer {
  public:
-  Tracer(const Scene& scene, const FlatScene& flat, const Accel& accel, int max_depth, float eps)
-      : scene_(scene), flat_(flat), accel_(accel), max_depth_(max_depth), eps_(eps) {
-    for (const Material& m : scene.materials)
+  Tracer(const Scene& scene, const FlatScene& flat, const std::vector<Light>& lights,
+         const Accel& accel, int max_depth, float eps)
+      : scene_(scene),
+        flat_(flat),
+        lights_(lights),
+        accel_(accel),
+        max_depth_(max_depth),
+        eps_(eps) {
+    for (const Material& m : flat.materials)
       has_transparent_ = has_transparent_ || m.transparency > 0;
   }
 
@@ -39,7 +45,8 @@ class Tracer {
  private:
   Vec3 shade(const Ray& ray, const Hit& hit, int depth, std::uint64_t& rays) const {
     const Triangle& tri = flat_.triangles[hit.prim];
-    const Material& m = scene_.materials[flat_.material[hit.prim]];
+    const Material& m = flat_.materials[flat_.material[hit.prim]];
+    const Vec3 diffuse = m.diffuse_at(hit_uv(flat_.uvs[hit.prim], hit.u, hit.v));
     const Vec3 d = normalize(ray.dir);
     const Vec3 p = hit_position(tri, hit);
 
@@ -58,11 +65,11 @@ class Tracer {
 
     const Vec3 above = p + ng * eps_, below = p - ng * eps_;
     const float share = diffuse_share(m);
-    Vec3 color = scene_.ambient * m.diffuse * share;
-    for (const Light& light : scene_.lights) {
+    Vec3 color = scene_.ambient * m.ambient.value_or(diffuse) * share;
+    for (const Light& light : lights_) {
       const LightSample s = sample_light(light, p);
       if (dot(ng, s.to_light) <= 0) continue;  // the surface itself faces away
-      const Vec3 c = phong(m, share, ns, -d, s);
+      const Vec3 c = phong(m, diffuse, share, ns, -d, s);
       if (c == Vec3{0}) continue;
       color += c * visibility(above, light, s, rays);
     }
@@ -107,7 +114,7 @@ class Tracer {
       ++rays;
       const Hit hit = accel_.intersect(ray);
       if (!hit.found()) return Vec3{transmitted};
-      const Material& m = scene_.materials[flat_.material[hit.prim]];
+      const Material& m = flat_.materials[flat_.material[hit.prim]];
       if (m.transparency <= 0) return Vec3{0};
       transmitted *= m.transparency;
       const Triangle& tri = flat_.triangles[hit.prim];
@@ -123,6 +130,7 @@ class Tracer {
 
   const Scene& scene_;
   const FlatScene& flat_;
+  const std::vector<Light>& lights_;
   const Accel& accel_;
   int max_depth_;
   float eps_;
@@ -144,10 +152,12 @@ RenderResult render_whitted(const Scene& scene, const Camera& camera,
   ThreadLimit limit(options.build.threads);
   const FlatScene flat = flatten(scene);
   const auto accel = make_accel(options.accel, flat.triangles, options.build);
-  const Tracer tracer(scene, flat, *accel, options.max_depth,
-                      offset_epsilon(bounds_of(flat.triangles)));
-
   RenderResult result;
+  result.lights = lights_for_view(scene, flat, *accel, camera, options.width, options.height);
+  result.coverage =
+      light_coverage(result.lights, flat, *accel, camera, options.width, options.height);
+  const Tracer tracer(scene, flat, result.lights, *accel, options.max_depth,
+                      offset_epsilon(bounds_of(flat.triangles)));
   result.accel_stats = accel->stats();
   result.image = Image(options.width, options.height);
   const int tiles_x = (options.width + kTileSize - 1) / kTileSize;

@@ -8,6 +8,7 @@
 #include "splitray/accel/accel.hpp"
 #include "splitray/core/image.hpp"
 #include "splitray/core/scene.hpp"
+#include "splitray/render/view_lights.hpp"
 
 namespace splitray {
 
@@ -25,6 +26,10 @@ struct RenderResult {
   AccelStats accel_stats;
   double render_ms = 0;        // tracing and shading only, without the build
   std::uint64_t rays = 0;      // all rays cast: primary, shadow, secondary
+  std::vector<Light> lights;   // the scene's, or those fitted to the view (lights_fit_view)
+  LightCoverage coverage;      // whether the lights reach what the camera sees
+  std::string gl_renderer;     // hybrid: the OpenGL renderer that ran (GL_RENDERER)
+  double cpu_ms = 0;           // hybrid: the CPU pass's time (its rays are `rays`)
 };
 
 RenderResult render_whitted(const Scene& scene, const Camera& camera, const RenderOptions& options);

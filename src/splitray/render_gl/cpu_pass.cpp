@@ -19,14 +19,16 @@ constexpr std::size_t kRowsPerChunk = 4;
 // A hit prepared for shading: position, normals turned towards the ray, side.
 struct CpuPass::Surface {
   const Material* m;
+  Vec3 diffuse;  // the material's diffuse colour at the hit (textured)
   Vec3 d, p, ng, ns, n_bounce;
   bool entering;
 };
 
-CpuPass::CpuPass(const Scene& scene, const FlatScene& flat, const Accel& accel, int max_depth)
-    : scene_(scene), flat_(flat), accel_(accel), max_depth_(max_depth),
+CpuPass::CpuPass(const Scene& scene, const FlatScene& flat, const std::vector<Light>& lights,
+                 const Accel& accel, int max_depth)
+    : scene_(scene), flat_(flat), lights_(lights), accel_(accel), max_depth_(max_depth),
       eps_(offset_epsilon(bounds_of(flat.triangles))) {
-  for (const Material& m : scene.materials) has_transparent_ = has_transparent_ || m.transparency > 0;
+  for (const Material& m : flat.materials) has_transparent_ = has_transparent_ || m.transparency > 0;
 }
 
 CpuPass::Surface CpuPass::surface(const Ray& ray, std::uint32_t prim, float t, float u,
@@ -34,7 +36,8 @@ CpuPass::Surface CpuPass::surface(const Ray& ray, std::uint32_t prim, float t, f
   (void)t;
   const Triangle& tri = flat_.triangles[prim];
   Surface s;
-  s.m = &scene_.materials[flat_.material[prim]];
+  s.m = &flat_.materials[flat_.material[prim]];
+  s.diffuse = s.m->diffuse_at(hit_uv(flat_.uvs[prim], u, v));
   s.d = normalize(ray.dir);
   Hit hit;
   hit.u = u;
@@ -91,12 +94,12 @@ Vec3 CpuPass::trace(const Ray& ray, int depth, Trace& t) const {
 Vec3 CpuPass::shade(const Ray& ray, const Surface& s, int depth, Trace& t) const {
   const Material& m = *s.m;
   const float share = diffuse_share(m);
-  Vec3 color = scene_.ambient * m.diffuse * share;
-  for (std::size_t i = 0; i < scene_.lights.size(); ++i) {
-    const Light& light = scene_.lights[i];
+  Vec3 color = scene_.ambient * m.ambient.value_or(s.diffuse) * share;
+  for (std::size_t i = 0; i < lights_.size(); ++i) {
+    const Light& light = lights_[i];
     const LightSample ls = sample_light(light, s.p);
     if (dot(s.ng, ls.to_light) <= 0) continue;
-    const Vec3 c = phong(m, share, s.ns, -s.d, ls);
+    const Vec3 c = phong(m, s.diffuse, share, s.ns, -s.d, ls);
     if (c == Vec3{0}) continue;
     const int answer = t.maps && i < t.maps->size() ? (*t.maps)[i].visibility(s.p, s.ng) : -1;
     if (answer >= 0) ++t.map_answers;
@@ -147,7 +150,7 @@ float CpuPass::visibility(const Vec3& org, const Light& light, std::uint64_t& ra
     ++rays;
     const Hit hit = accel_.intersect(ray);
     if (!hit.found()) return transmitted;
-    const Material& m = scene_.materials[flat_.material[hit.prim]];
+    const Material& m = flat_.materials[flat_.material[hit.prim]];
     if (m.transparency <= 0) return 0;
     transmitted *= m.transparency;
     const Triangle& tri = flat_.triangles[hit.prim];
@@ -190,7 +193,7 @@ float CpuPass::exact_visibility(const Camera& camera, int width, int height, int
   if (!plane_hit(ray, flat_.triangles[prim], t, u, v)) return 1;
   const Surface s = surface(ray, prim, t, u, v);
   // Facing away from the light: shading skips the light, the mask and the refinement say 0.
-  const Light& l = scene_.lights[light];
+  const Light& l = lights_[light];
   if (dot(s.ng, sample_light(l, s.p).to_light) <= 0) return 0;
   return visibility(s.p + s.ng * eps_, l, rays);
 }
@@ -201,7 +204,7 @@ void CpuPass::run(const CpuPassInput& in, bool secondary_rays, bool refine,
   const std::size_t n = static_cast<std::size_t>(in.width) * in.height;
   out.color.assign(n, {0, 0, 0, 0});
   out.refined = in.mask;
-  const int lights = static_cast<int>(std::min<std::size_t>(scene_.lights.size(), 4));
+  const int lights = static_cast<int>(std::min<std::size_t>(lights_.size(), 4));
   const std::size_t rows = static_cast<std::size_t>(in.height);
   std::vector<std::uint64_t> row_rays(rows, 0), row_secondary(rows, 0), row_boundary(rows, 0),
       row_boundary_rays(rows, 0), row_map_answers(rows, 0);
@@ -212,7 +215,7 @@ void CpuPass::run(const CpuPassInput& in, bool secondary_rays, bool refine,
         const std::uint32_t id = in.ids[i];
         if (id == 0) continue;
         const std::uint32_t prim = id - 1;
-        const Material& m = scene_.materials[flat_.material[prim]];
+        const Material& m = flat_.materials[flat_.material[prim]];
         const bool needs_secondary = secondary_rays && (m.reflectivity > 0 || m.transparency > 0);
         bool any_boundary = false;
         for (int l = 0; l < lights; ++l) any_boundary = any_boundary || (refine && in.boundary[i][l]);
@@ -227,10 +230,10 @@ void CpuPass::run(const CpuPassInput& in, bool secondary_rays, bool refine,
           const std::uint64_t before = rays;
           for (int l = 0; l < lights; ++l)
             if (in.boundary[i][l]) {
-              const LightSample ls = sample_light(scene_.lights[l], s.p);
+              const LightSample ls = sample_light(lights_[l], s.p);
               out.refined[i][l] = dot(s.ng, ls.to_light) <= 0
                                       ? 0.0f
-                                      : visibility(s.p + s.ng * eps_, scene_.lights[l], rays);
+                                      : visibility(s.p + s.ng * eps_, lights_[l], rays);
             }
           row_boundary_rays[y] += rays - before;
         }

@@ -53,7 +53,9 @@ struct CpuPassOutput {
 
 class CpuPass {
  public:
-  CpuPass(const Scene& scene, const FlatScene& flat, const Accel& accel, int max_depth);
+  // `lights`: the lights the frame is shaded with (the scene's, or fitted to the view).
+  CpuPass(const Scene& scene, const FlatScene& flat, const std::vector<Light>& lights,
+          const Accel& accel, int max_depth);
   void run(const CpuPassInput& in, bool secondary, bool refine, CpuPassOutput& out) const;
 
   // Exact visibility of light `i` from the primary hit of pixel (x, y) on triangle `prim`:
@@ -77,6 +79,7 @@ class CpuPass {
 
   const Scene& scene_;
   const FlatScene& flat_;
+  std::vector<Light> lights_;
   const Accel& accel_;
   int max_depth_;
   float eps_;

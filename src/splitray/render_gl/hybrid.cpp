@@ -1,5 +1,6 @@
 #include "splitray/render_gl/hybrid.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <future>
 #include <glm/gtc/type_ptr.hpp>
@@ -27,10 +28,16 @@ constexpr int kUnitMap = 1, kUnitFlag = 5, kUnitCube = 9, kUnitCubeFlag = 13;
 struct Vertex {
   float position[3], normal[3], geometric_normal[3];
   std::uint32_t material;
+  float uv[2];
 };
 
 struct MaterialGpu {
-  float diffuse_share[4], specular_shine[4], flags[4];
+  float diffuse_share[4], specular_shine[4], flags[4];  // flags: transparency, texture (-1 none)
+  float ambient[4];  // a = 1: the material's own ambient colour, 0: the diffuse colour
+};
+
+struct TextureGpu {
+  std::int32_t width, height, offset, wrap;  // wrap: u's WrapMode | v's << 2
 };
 
 struct ShadowMap {
@@ -90,10 +97,11 @@ struct HybridRenderer::Impl {
   const Scene& scene;
   HybridOptions options;
   std::shared_ptr<Geometry> geometry;  // of the next frame submitted
+  std::vector<Light> view_lights;      // the scene's, or fitted to the first camera's view
   std::size_t lights = 0;
   bool has_secondary = false;  // a material reflects or refracts
 
-  GLuint materials = 0, empty_vao = 0;
+  GLuint materials = 0, texture_buffer = 0, texel_buffer = 0, empty_vao = 0;
   Program shadow, shadow_cube, id, blur, composite;
   std::vector<ShadowMap> maps;
   GLuint id_fbo = 0, id_tex = 0, mask_tex = 0, depth_tex = 0;
@@ -105,7 +113,7 @@ struct HybridRenderer::Impl {
   std::size_t submitted = 0;  // frames submitted since the last finish()
   std::future<void> pending;  // the CPU pass of the last frame submitted (interleaved)
 
-  Impl(const Scene& s, const HybridOptions& o) : scene(s), options(o) {
+  Impl(const Scene& s, const HybridOptions& o, const Camera& view) : scene(s), options(o) {
     check_options(o);
     scene.validate("scene");
     if (scene.lights.size() > static_cast<std::size_t>(kMaxHybridLights))
@@ -113,9 +121,8 @@ struct HybridRenderer::Impl {
                                        " lights are supported, the scene has " +
                                        std::to_string(scene.lights.size()));
     FlatScene flat = flatten(scene);
-    for (const Material& m : scene.materials)
+    for (const Material& m : flat.materials)
       has_secondary = has_secondary || m.reflectivity > 0 || m.transparency > 0;
-    lights = scene.lights.size();
     const char* version = reinterpret_cast<const char*>(glGetString(GL_VERSION));
     GLint major = 0, minor = 0;
     glGetIntegerv(GL_MAJOR_VERSION, &major);
@@ -123,13 +130,14 @@ struct HybridRenderer::Impl {
     if (major * 10 + minor < 45)
       throw Error("--mode hybrid",
                   std::string("needs OpenGL 4.5, the context has ") + (version ? version : "none"));
-    geometry = make_geometry(std::move(flat), nullptr);
-    upload_materials();
+    geometry = make_geometry(std::move(flat), nullptr, &view);
+    lights = view_lights.size();
+    upload_materials(geometry->flat);
     shadow = Program("scene.vert.glsl", "shadow.frag.glsl");
     shadow_cube = Program("scene.vert.glsl", "shadow.frag.glsl", {"shadow_cube.glsl"});
     id = Program("scene.vert.glsl", "id.frag.glsl", {"lights.glsl"});
     blur = Program("fullscreen.vert.glsl", "blur.frag.glsl");
-    composite = Program("scene.vert.glsl", "composite.frag.glsl", {"lights.glsl"});
+    composite = Program("scene.vert.glsl", "composite.frag.glsl", {"lights.glsl", "texture.glsl"});
     make_targets();
     set_static_uniforms();
     glCreateQueries(GL_TIME_ELAPSED, 5, queries);
@@ -149,20 +157,26 @@ struct HybridRenderer::Impl {
       glDeleteFramebuffers(m.cube ? 6 : 1, m.fbo);
     }
     if (pending.valid()) pending.wait();
-    glDeleteBuffers(1, &materials);
+    GLuint buffers[] = {materials, texture_buffer, texel_buffer};
+    glDeleteBuffers(3, buffers);
     glDeleteVertexArrays(1, &empty_vao);
   }
 
   // The hierarchy (built by `build`, or make_accel from the options) and the vertex buffer of
-  // `flat`.
+  // `flat`; the first geometry also decides the lights (fitted to `view` where the scene has
+  // none of its own).
   std::shared_ptr<Geometry> make_geometry(
-      FlatScene flat,
-      const std::function<std::unique_ptr<Accel>(std::span<const Triangle>)>& build) {
+      FlatScene flat, const std::function<std::unique_ptr<Accel>(std::span<const Triangle>)>& build,
+      const Camera* view = nullptr) {
     auto g = std::make_shared<Geometry>();
     g->flat = std::move(flat);
     g->accel = build ? build(g->flat.triangles)
                      : make_accel(options.accel, g->flat.triangles, options.build);
-    g->cpu = std::make_unique<gl::CpuPass>(scene, g->flat, *g->accel, options.max_depth);
+    if (view)
+      view_lights =
+          lights_for_view(scene, g->flat, *g->accel, *view, options.width, options.height);
+    g->cpu =
+        std::make_unique<gl::CpuPass>(scene, g->flat, view_lights, *g->accel, options.max_depth);
     g->bounds = bounds_of(g->flat.triangles);
     upload_vertices(*g);
     return g;
@@ -183,6 +197,8 @@ struct HybridRenderer::Impl {
           v.geometric_normal[c] = ng[c];
         }
         v.material = flat.material[t];
+        v.uv[0] = flat.uvs[t][k].x;
+        v.uv[1] = flat.uvs[t][k].y;
       }
     }
     g.vertex_count = vertices.size();
@@ -200,25 +216,54 @@ struct HybridRenderer::Impl {
     glEnableVertexArrayAttrib(vao, 3);
     glVertexArrayAttribIFormat(vao, 3, 1, GL_UNSIGNED_INT, offsetof(Vertex, material));
     glVertexArrayAttribBinding(vao, 3, 0);
+    glEnableVertexArrayAttrib(vao, 4);
+    glVertexArrayAttribFormat(vao, 4, 2, GL_FLOAT, GL_FALSE, offsetof(Vertex, uv));
+    glVertexArrayAttribBinding(vao, 4, 0);
   }
 
-  void upload_materials() {
+  // The materials, and their textures as texel arrays that texture.glsl samples with the CPU's
+  // arithmetic (core/texture.cpp), so that both renderers see the same colours.
+  void upload_materials(const FlatScene& flat) {
     glCreateVertexArrays(1, &empty_vao);
 
     std::vector<MaterialGpu> mats;
-    for (const Material& m : scene.materials)
+    std::vector<TextureGpu> texture_info;
+    std::vector<std::array<float, 4>> texel_data;
+    std::vector<const Texture*> uploaded;
+    for (const Material& m : flat.materials) {
+      float texture = -1;
+      if (const Texture* t = m.diffuse_texture.get()) {
+        const auto it = std::find(uploaded.begin(), uploaded.end(), t);
+        texture = static_cast<float>(it - uploaded.begin());
+        if (it == uploaded.end()) {
+          uploaded.push_back(t);
+          texture_info.push_back(
+              {t->width, t->height, static_cast<std::int32_t>(texel_data.size()),
+               static_cast<std::int32_t>(t->wrap_u) | static_cast<std::int32_t>(t->wrap_v) << 2});
+          for (const Vec3& c : t->texels) texel_data.push_back({c.x, c.y, c.z, 1});
+        }
+      }
       mats.push_back({{m.diffuse.x, m.diffuse.y, m.diffuse.z,
                        std::max(0.0f, 1.0f - m.reflectivity - m.transparency)},
                       {m.specular.x, m.specular.y, m.specular.z, m.shininess},
-                      {m.transparency, 0, 0, 0}});
-    glCreateBuffers(1, &materials);
-    glNamedBufferStorage(materials, static_cast<GLsizeiptr>(mats.size() * sizeof(MaterialGpu)),
-                         mats.data(), 0);
+                      {m.transparency, texture, 0, 0},
+                      {m.ambient.value_or(Vec3{0}).x, m.ambient.value_or(Vec3{0}).y,
+                       m.ambient.value_or(Vec3{0}).z, m.ambient ? 1.0f : 0.0f}});
+    }
+    if (texture_info.empty()) texture_info.push_back({});  // buffers must not be empty
+    if (texel_data.empty()) texel_data.push_back({});
+    const auto make = [](GLuint& buffer, std::size_t bytes, const void* data) {
+      glCreateBuffers(1, &buffer);
+      glNamedBufferStorage(buffer, static_cast<GLsizeiptr>(bytes), data, 0);
+    };
+    make(materials, mats.size() * sizeof(MaterialGpu), mats.data());
+    make(texture_buffer, texture_info.size() * sizeof(TextureGpu), texture_info.data());
+    make(texel_buffer, texel_data.size() * sizeof(texel_data[0]), texel_data.data());
   }
 
   void make_targets() {
     const int w = options.width, h = options.height;
-    for (const Light& light : scene.lights) {
+    for (const Light& light : view_lights) {
       ShadowMap m;
       m.cube = light.kind == Light::Kind::point;
       m.size = m.cube ? std::max(16, options.shadow_map_size / 2) : options.shadow_map_size;
@@ -284,7 +329,7 @@ struct HybridRenderer::Impl {
       const GLuint prog = p->id();
       glProgramUniform1i(prog, p->uniform("u_light_count"), static_cast<int>(lights));
       for (std::size_t i = 0; i < lights; ++i) {
-        const Light& l = scene.lights[i];
+        const Light& l = view_lights[i];
         const auto at = [&](const char* name) {
           return p->uniform((std::string(name) + "[" + std::to_string(i) + "]").c_str());
         };
@@ -293,6 +338,7 @@ struct HybridRenderer::Impl {
         glProgramUniform3f(prog, at("u_light_position"), l.position.x, l.position.y, l.position.z);
         glProgramUniform3f(prog, at("u_light_direction"), to_light.x, to_light.y, to_light.z);
         glProgramUniform3f(prog, at("u_light_radiance"), radiance.x, radiance.y, radiance.z);
+        glProgramUniform1f(prog, at("u_light_falloff"), l.falloff ? 1.0f : 0.0f);
       }
     }
     for (int i = 0; i < kMaxHybridLights; ++i) {
@@ -315,6 +361,8 @@ struct HybridRenderer::Impl {
   void draw_scene(const Geometry& g) {
     glBindVertexArray(g.vao);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, materials);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, texture_buffer);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, texel_buffer);
     glDrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(g.vertex_count));
   }
 
@@ -334,7 +382,7 @@ struct HybridRenderer::Impl {
     glDisable(GL_CULL_FACE);
     for (std::size_t i = 0; i < lights; ++i) {
       ShadowMap& m = maps[i];
-      const Light& light = scene.lights[i];
+      const Light& light = view_lights[i];
       glViewport(0, 0, m.size, m.size);
       const Program& program = m.cube ? shadow_cube : shadow;
       program.use();
@@ -459,7 +507,7 @@ struct HybridRenderer::Impl {
       out.cube = m.cube;
       out.size = m.size;
       out.matrices = m.faces;
-      out.position = scene.lights[i].position;
+      out.position = view_lights[i].position;
       out.range = m.range;
       out.normal_offset = m.normal_offset;
       const std::size_t n = static_cast<std::size_t>(m.size) * m.size * (m.cube ? 6 : 1);
@@ -536,8 +584,8 @@ struct HybridRenderer::Impl {
   }
 };
 
-HybridRenderer::HybridRenderer(const Scene& scene, const HybridOptions& options)
-    : impl_(std::make_unique<Impl>(scene, options)) {}
+HybridRenderer::HybridRenderer(const Scene& scene, const HybridOptions& options, const Camera& view)
+    : impl_(std::make_unique<Impl>(scene, options, view)) {}
 HybridRenderer::~HybridRenderer() = default;
 
 std::optional<HybridFrame> HybridRenderer::submit(const Camera& camera) {
@@ -592,7 +640,9 @@ void HybridRenderer::set_triangles(
                                        std::to_string(old.triangles.size()) + "), got " +
                                        std::to_string(triangles.size()));
   FlatScene flat;
+  flat.materials = old.materials;
   flat.material = old.material;
+  flat.uvs = old.uvs;
   flat.vertex_normals.resize(triangles.size());
   for (std::size_t t = 0; t < triangles.size(); ++t) {
     Vec3 n = normalize(triangles[t].geometric_normal());
@@ -612,11 +662,17 @@ HybridFrame HybridRenderer::render_one(const Camera& camera) {
 unsigned HybridRenderer::last_texture() const { return impl_->final_tex; }
 const AccelStats& HybridRenderer::accel_stats() const { return impl_->geometry->accel->stats(); }
 std::size_t HybridRenderer::light_count() const { return impl_->lights; }
+const std::vector<Light>& HybridRenderer::lights() const { return impl_->view_lights; }
+LightCoverage HybridRenderer::coverage(const Camera& camera) const {
+  const Impl& r = *impl_;
+  return light_coverage(r.view_lights, r.geometry->flat, *r.geometry->accel, camera,
+                        r.options.width, r.options.height);
+}
 HybridOptions& HybridRenderer::options() { return impl_->options; }
 
 RenderResult render_hybrid(const Scene& scene, const Camera& camera, const HybridOptions& options) {
   gl::EglContext context;
-  HybridRenderer renderer(scene, options);
+  HybridRenderer renderer(scene, options, camera);
   const Timer timer;
   HybridFrame frame = renderer.render_one(camera);
   RenderResult result;
@@ -624,6 +680,10 @@ RenderResult render_hybrid(const Scene& scene, const Camera& camera, const Hybri
   result.image = std::move(frame.image);
   result.accel_stats = renderer.accel_stats();
   result.rays = frame.cpu_rays;
+  result.cpu_ms = frame.pass_ms[3];
+  result.lights = renderer.lights();
+  result.coverage = renderer.coverage(camera);
+  result.gl_renderer = gl::renderer_name();
   return result;
 }
 

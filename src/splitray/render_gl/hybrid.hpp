@@ -58,7 +58,8 @@ struct HybridFrame {
 // Needs a current OpenGL 4.5 context on the calling thread for its whole life.
 class HybridRenderer {
  public:
-  HybridRenderer(const Scene& scene, const HybridOptions& options);
+  // `view`: the camera that lights are fitted to when the scene has none (lights_fit_view).
+  HybridRenderer(const Scene& scene, const HybridOptions& options, const Camera& view);
   ~HybridRenderer();
 
   // Renders the frames in order; `done` receives each finished frame (in order). With
@@ -82,6 +83,9 @@ class HybridRenderer {
   unsigned last_texture() const;
   const AccelStats& accel_stats() const;
   std::size_t light_count() const;
+  const std::vector<Light>& lights() const;  // the lights frames are shaded with
+  // Whether those lights reach what `camera` sees (render/view_lights.hpp).
+  LightCoverage coverage(const Camera& camera) const;
   HybridOptions& options();
 
  private:
@@ -89,7 +93,8 @@ class HybridRenderer {
   std::unique_ptr<Impl> impl_;
 };
 
-// One frame in a headless EGL context; RenderResult::rays counts the CPU's rays only.
+// One frame in a headless EGL context; RenderResult::rays counts the CPU's rays only, cpu_ms
+// is the CPU pass's time and gl_renderer the OpenGL renderer that ran.
 // Throws Error (never crashes) when no usable OpenGL 4.5 exists.
 RenderResult render_hybrid(const Scene& scene, const Camera& camera, const HybridOptions& options);
 

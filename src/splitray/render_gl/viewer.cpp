@@ -22,7 +22,7 @@ namespace splitray {
 
 namespace {
 
-constexpr const char* kWhere = "splitray view";
+constexpr const char* kWhere = "view";
 
 std::string& glfw_message() {
   static std::string message;
@@ -179,7 +179,7 @@ Scene animation_scene(const std::vector<Triangle>& first_frame) {
   return scene_from_mesh(std::move(mesh));  // no vertex normals: flat, as later frames
 }
 
-void run_viewer(const Scene& scene, const ViewerOptions& options) {
+ViewerSummary run_viewer(const Scene& scene, const ViewerOptions& options) {
   const bool animated = options.frames.size() > 1;
   if (animated && options.hybrid.accel != "kd")
     throw Error("--accel", "animations are rebuilt by the predicted kd builder: use --accel kd");
@@ -193,7 +193,14 @@ void run_viewer(const Scene& scene, const ViewerOptions& options) {
   const std::string renderer_name = gl::renderer_name();
   ThreadLimit limit(ho.build.threads);
 
-  HybridRenderer renderer(scene, ho);
+  const Camera start = options.camera                  ? *options.camera
+                       : !options.frame_cameras.empty() ? options.frame_cameras.front()
+                       : scene.camera                   ? *scene.camera
+                                                        : Camera::frame(scene.bounds());
+  HybridRenderer renderer(scene, ho, start);
+  if (const std::string warning = coverage_warning(renderer.coverage(start), renderer.lights().size());
+      !warning.empty())
+    std::fprintf(stderr, "splitray: warning: %s\n", warning.c_str());
   const std::size_t triangles = renderer.accel_stats().prims;
   gl::Overlay overlay;
   const gl::Program present("fullscreen.vert.glsl", "present.frag.glsl");
@@ -201,8 +208,6 @@ void run_viewer(const Scene& scene, const ViewerOptions& options) {
   glCreateVertexArrays(1, &empty_vao);
   glProgramUniform1i(present.id(), present.uniform("u_image"), 0);
 
-  const Camera start = options.camera ? *options.camera
-                                      : (scene.camera ? *scene.camera : Camera::frame(scene.bounds()));
   Controls controls(start, length(scene.bounds().extent()));
   glfwSetWindowUserPointer(window.get(), &controls);
   install_callbacks(window.get());
@@ -220,8 +225,8 @@ void run_viewer(const Scene& scene, const ViewerOptions& options) {
 
   const auto save = [&](const std::string& path) {
     if (last.image.pixels.empty()) return;
-    write_png(path, last.image);
-    std::printf("splitray view: saved %s (%d x %d)\n", path.c_str(), last.image.width, last.image.height);
+    write_image(path, last.image);
+    std::fprintf(stderr, "splitray view: saved %s (%d x %d)\n", path.c_str(), last.image.width, last.image.height);
     std::fflush(stdout);
   };
   // Puts the finished frame (the renderer's last composite) on the screen with the overlay.
@@ -304,7 +309,9 @@ void run_viewer(const Scene& scene, const ViewerOptions& options) {
       });
       build_ms = build_timer.ms();
     }
-    const Camera camera = controls.moved ? controls.camera : controls.original;
+    const Camera camera = controls.moved                ? controls.camera
+                          : options.frame_cameras.empty() ? controls.original
+                                                          : options.frame_cameras[animation_frame];
     ++submitted;
     if (auto f = renderer.submit(camera)) show(std::move(*f));
     if (controls.screenshot) {
@@ -318,6 +325,7 @@ void run_viewer(const Scene& scene, const ViewerOptions& options) {
   }
   if (options.exit_after > 0 && !options.screenshot.empty()) save(options.screenshot);
   glDeleteVertexArrays(1, &empty_vao);
+  return {shown, fps, renderer_name, triangles, renderer.lights().size()};
 }
 
 }  // namespace splitray

@@ -4,6 +4,7 @@ uniform int u_light_kind[kMaxLights];
 uniform vec3 u_light_position[kMaxLights];
 uniform vec3 u_light_direction[kMaxLights];  // towards the light, unit (directional)
 uniform vec3 u_light_radiance[kMaxLights];   // colour * intensity
+uniform float u_light_falloff[kMaxLights];   // point lights: 1 = 1/d^2, 0 = none
 uniform vec3 u_eye;
 
 // The geometric normal turned towards the viewer, as the CPU tracer turns it to the ray.
