@@ -16,6 +16,10 @@ std::string model_file(NeuralCost cost) { return cost == NeuralCost::sah ? "sah.
 std::vector<std::string> model_dirs() {
   std::vector<std::string> dirs;
   if (const char* env = std::getenv("SPLITRAY_MODEL_DIR"); env && *env) dirs.emplace_back(env);
+  // The source tree named as for scripts/ (io/plot_script.cpp): the tests set it, and it holds
+  // where __FILE__ is relative (a compiler cache that rewrites paths).
+  if (const char* env = std::getenv("SPLITRAY_SOURCE_DIR"); env && *env)
+    dirs.push_back((std::filesystem::path(env) / "models").string());
   // This file is src/splitray/accel/neural/model_path.cpp: the source tree is four levels up.
   const std::filesystem::path self(__FILE__);
   if (self.is_absolute())
