@@ -334,6 +334,54 @@ inline void split_polygon(const ClipTriangle& tri, const ClipVertex* poly, int n
   above = lo[1][0] <= hi[1][0] ? rounded_bounds(lo[1], hi[1], above_limit) : Aabb{};
 }
 
+// Both sides' bounds of the whole triangle cut at `position` on `axis`, cut to their limits:
+// its vertices on each side and its edges' crossings with the plane, each crossing computed
+// from the edge's float ends (no polygon to carry: the split of a triangle inside its cell and
+// the SBVH's reference splits, which bin every reference and so call this most).
+inline void split_whole_triangle(const Triangle& triangle, int axis, float position,
+                                 const Aabb& below_limit, const Aabb& above_limit, Aabb& below,
+                                 Aabb& above) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  double lo[2][3] = {{kInf, kInf, kInf}, {kInf, kInf, kInf}};
+  double hi[2][3] = {{-kInf, -kInf, -kInf}, {-kInf, -kInf, -kInf}};
+  double v[3][3];
+  double scale = 0;
+  const Vec3 corners[3] = {triangle.v0, triangle.v1, triangle.v2};
+  for (int i = 0; i < 3; ++i) {
+    v[i][0] = corners[i].x, v[i][1] = corners[i].y, v[i][2] = corners[i].z;
+    scale = std::max({scale, std::fabs(v[i][0]), std::fabs(v[i][1]), std::fabs(v[i][2])});
+  }
+  const double rounding = scale * 0x1p-49;  // as ClipTriangle::rounding
+  for (int i = 0; i < 3; ++i) {
+    const double* a = v[i];
+    const double* b = v[i == 2 ? 0 : i + 1];
+    for (int side = 0; side < 2; ++side)
+      if (side == 0 ? a[axis] <= position : a[axis] >= position)
+        for (int j = 0; j < 3; ++j) {
+          lo[side][j] = std::min(lo[side][j], a[j]);
+          hi[side][j] = std::max(hi[side][j], a[j]);
+        }
+    if (!((a[axis] < position && b[axis] > position) || (a[axis] > position && b[axis] < position)))
+      continue;
+    const double t = (position - a[axis]) / (b[axis] - a[axis]);
+    for (int j = 0; j < 3; ++j) {
+      double c = position, err = 0;
+      if (j != axis && a[j] != b[j]) {
+        c = std::clamp(a[j] + (b[j] - a[j]) * t, std::min(a[j], b[j]), std::max(a[j], b[j]));
+        err = rounding;
+      } else if (j != axis) {
+        c = a[j];
+      }
+      for (int side = 0; side < 2; ++side) {
+        lo[side][j] = std::min(lo[side][j], c - err);
+        hi[side][j] = std::max(hi[side][j], c + err);
+      }
+    }
+  }
+  below = lo[0][0] <= hi[0][0] ? rounded_bounds(lo[0], hi[0], below_limit) : Aabb{};
+  above = lo[1][0] <= hi[1][0] ? rounded_bounds(lo[1], hi[1], above_limit) : Aabb{};
+}
+
 }  // namespace clip_detail
 
 // Bounds of triangle ∩ box, inside `box`; empty when the triangle's bounds miss the box.
@@ -368,12 +416,17 @@ inline void clip_triangle_split(const Triangle& triangle, const Aabb& cell, int 
   const Aabb above_limit = intersection(bounds, above_cell);
   below = below_limit;
   above = above_limit;
-  const ClipTriangle tri(triangle);
-  Polygon poly;
-  const int count = clip_to_box(tri, bounds, cell, poly);
-  if (count <= 0) return;
   Aabb b, a;
-  split_polygon(tri, poly.data(), count, axis, position, below_limit, above_limit, b, a);
+  if (bounds.lo.x >= cell.lo.x && bounds.lo.y >= cell.lo.y && bounds.lo.z >= cell.lo.z &&
+      bounds.hi.x <= cell.hi.x && bounds.hi.y <= cell.hi.y && bounds.hi.z <= cell.hi.z) {
+    split_whole_triangle(triangle, axis, position, below_limit, above_limit, b, a);
+  } else {
+    const ClipTriangle tri(triangle);
+    Polygon poly;
+    const int count = clip_to_box(tri, bounds, cell, poly);
+    if (count <= 0) return;
+    split_polygon(tri, poly.data(), count, axis, position, below_limit, above_limit, b, a);
+  }
   if (!b.empty()) below = b;
   if (!a.empty()) above = a;
 }
@@ -390,9 +443,47 @@ inline void split_triangle_bounds(const Triangle& triangle, const Aabb& box, int
   right_limit.lo[axis] = std::max(right_limit.lo[axis], position);
   left_limit = intersection(left_limit, bounds);
   right_limit = intersection(right_limit, bounds);
-  const ClipTriangle tri(triangle);
-  const ClipVertex poly[3] = {tri.vertex(0), tri.vertex(1), tri.vertex(2)};
-  split_polygon(tri, poly, 3, axis, position, left_limit, right_limit, left, right);
+  split_whole_triangle(triangle, axis, position, left_limit, right_limit, left, right);
+}
+
+// The SBVH's spatial binning: estimates of the bounds of the triangle's part in each of the
+// slabs [plane(b), plane(b + 1)] on `axis` for b = first..last (plane(b): the builder's bin
+// planes), each cut to the reference's box `box`, into out[0 .. last - first]. They only rate
+// candidate splits, so they are computed in float and rounded to nearest, the reference
+// chopped plane by plane (each plane once, its edge crossings shared by the slabs on both
+// sides); the references a chosen split makes are clipped conservatively by
+// split_triangle_bounds.
+template <class Plane>
+void slab_bounds(const Triangle& triangle, const Aabb& box, int axis, int first, int last,
+                 const Plane& plane, Aabb* out) {
+  const Vec3 v[3] = {triangle.v0, triangle.v1, triangle.v2};
+  const float x[3] = {v[0][axis], v[1][axis], v[2][axis]};  // along the axis, indexed once
+  Aabb rest = box;
+  for (int b = first; b < last; ++b) {
+    const float p = plane(b + 1);
+    Aabb below, above;
+    for (int e = 0; e < 3; ++e) {
+      const int f = e == 2 ? 0 : e + 1;
+      if (x[e] <= p) below.extend(v[e]);
+      if (x[e] >= p) above.extend(v[e]);
+      if ((x[e] < p && x[f] > p) || (x[e] > p && x[f] < p)) {
+        const Vec3& a = v[e];
+        const Vec3& c = v[f];
+        Vec3 q = max(min(a + (c - a) * ((p - x[e]) / (x[f] - x[e])), max(a, c)), min(a, c));
+        q[axis] = p;
+        below.extend(q);
+        above.extend(q);
+      }
+    }
+    Aabb below_box = rest, above_box = rest;
+    below_box.hi[axis] = std::min(below_box.hi[axis], p);
+    above_box.lo[axis] = std::max(above_box.lo[axis], p);
+    out[b - first] = intersection(below, below_box);
+    if (out[b - first].empty()) out[b - first] = {};
+    rest = intersection(above, above_box);
+    if (rest.empty()) rest = {};
+  }
+  out[last - first] = rest;
 }
 
 }  // namespace splitray
