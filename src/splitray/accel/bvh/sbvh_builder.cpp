@@ -78,8 +78,6 @@ class SbvhBuilder {
     const float parent_area = std::max(box.half_area(), std::numeric_limits<float>::min());
     thread_local std::vector<SpatialBin> bins(kMaxSpatialBins);  // scratch, reset per axis below
     thread_local std::vector<Aabb> right_box(kMaxSpatialBins);
-    thread_local std::vector<Aabb> part_boxes(kMaxSpatialBins);
-    Aabb* const parts = part_boxes.data();
     for (int a = 0; a < 3; ++a) {
       const float lo = box.lo[a], extent = box.hi[a] - box.lo[a];
       if (!(extent > 0)) continue;
@@ -95,10 +93,13 @@ class SbvhBuilder {
           bins[b0].box.extend(r.box);
           continue;
         }
-        // The reference's part in each bin it crosses.
-        slab_bounds(
-            tris_[r.prim], r.box, a, b0, b1, [&](int b) { return bin_plane(lo, width, b); }, parts);
-        for (int b = b0; b <= b1; ++b) bins[b].box.extend(parts[b - b0]);
+        Aabb rest = r.box;  // chop the reference into the bins it crosses, plane by plane
+        for (int b = b0; b < b1; ++b) {
+          Aabb part;
+          split_triangle_estimate(tris_[r.prim], rest, a, bin_plane(lo, width, b + 1), part, rest);
+          bins[b].box.extend(part);
+        }
+        bins[b1].box.extend(rest);
       }
       Aabb acc;
       for (int i = count - 1; i > 0; --i) {
