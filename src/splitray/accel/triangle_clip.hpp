@@ -334,13 +334,14 @@ inline void split_polygon(const ClipTriangle& tri, const ClipVertex* poly, int n
   above = lo[1][0] <= hi[1][0] ? rounded_bounds(lo[1], hi[1], above_limit) : Aabb{};
 }
 
-// Both sides' bounds of the whole triangle cut at `position` on `axis`, cut to their limits:
-// its vertices on each side and its edges' crossings with the plane, each crossing computed
-// from the edge's float ends (no polygon to carry: the split of a triangle inside its cell and
-// the SBVH's reference splits, which bin every reference and so call this most).
-inline void split_whole_triangle(const Triangle& triangle, int axis, float position,
-                                 const Aabb& below_limit, const Aabb& above_limit, Aabb& below,
-                                 Aabb& above) {
+// Both sides' bounds of the triangle's part in the slab [slab_lo, slab_hi] on `axis` cut at
+// `position` inside it, each cut to its limit: its vertices on each side and its edges'
+// crossings with the three planes (slab_lo counts below, `position` both sides, slab_hi
+// above), each crossing computed from the edge's float ends, so no polygon to carry and no
+// plane equation. With an unbounded slab: the whole triangle cut at a plane.
+inline void split_in_slab(const Triangle& triangle, int axis, double slab_lo, float position,
+                          double slab_hi, const Aabb& below_limit, const Aabb& above_limit,
+                          Aabb& below, Aabb& above) {
   constexpr double kInf = std::numeric_limits<double>::infinity();
   double lo[2][3] = {{kInf, kInf, kInf}, {kInf, kInf, kInf}};
   double hi[2][3] = {{-kInf, -kInf, -kInf}, {-kInf, -kInf, -kInf}};
@@ -352,29 +353,34 @@ inline void split_whole_triangle(const Triangle& triangle, int axis, float posit
     scale = std::max({scale, std::fabs(v[i][0]), std::fabs(v[i][1]), std::fabs(v[i][2])});
   }
   const double rounding = scale * 0x1p-49;  // as ClipTriangle::rounding
+  const double plane[3] = {slab_lo, position, slab_hi};
+  const auto extend = [&](int side, int j, double c, double err) {
+    lo[side][j] = std::min(lo[side][j], c - err);
+    hi[side][j] = std::max(hi[side][j], c + err);
+  };
   for (int i = 0; i < 3; ++i) {
     const double* a = v[i];
     const double* b = v[i == 2 ? 0 : i + 1];
-    for (int side = 0; side < 2; ++side)
-      if (side == 0 ? a[axis] <= position : a[axis] >= position)
-        for (int j = 0; j < 3; ++j) {
-          lo[side][j] = std::min(lo[side][j], a[j]);
-          hi[side][j] = std::max(hi[side][j], a[j]);
-        }
-    if (!((a[axis] < position && b[axis] > position) || (a[axis] > position && b[axis] < position)))
-      continue;
-    const double t = (position - a[axis]) / (b[axis] - a[axis]);
+    const bool in_below = a[axis] >= slab_lo && a[axis] <= position;
+    const bool in_above = a[axis] >= position && a[axis] <= slab_hi;
     for (int j = 0; j < 3; ++j) {
-      double c = position, err = 0;
-      if (j != axis && a[j] != b[j]) {
-        c = std::clamp(a[j] + (b[j] - a[j]) * t, std::min(a[j], b[j]), std::max(a[j], b[j]));
-        err = rounding;
-      } else if (j != axis) {
-        c = a[j];
-      }
-      for (int side = 0; side < 2; ++side) {
-        lo[side][j] = std::min(lo[side][j], c - err);
-        hi[side][j] = std::max(hi[side][j], c + err);
+      if (in_below) extend(0, j, a[j], 0);
+      if (in_above) extend(1, j, a[j], 0);
+    }
+    for (int k = 0; k < 3; ++k) {
+      const double q = plane[k];
+      if (!((a[axis] < q && b[axis] > q) || (a[axis] > q && b[axis] < q))) continue;
+      const double t = (q - a[axis]) / (b[axis] - a[axis]);
+      for (int j = 0; j < 3; ++j) {
+        double c = q, err = 0;
+        if (j != axis && a[j] != b[j]) {
+          c = std::clamp(a[j] + (b[j] - a[j]) * t, std::min(a[j], b[j]), std::max(a[j], b[j]));
+          err = rounding;
+        } else if (j != axis) {
+          c = a[j];
+        }
+        if (k <= 1) extend(0, j, c, err);
+        if (k >= 1) extend(1, j, c, err);
       }
     }
   }
@@ -383,6 +389,12 @@ inline void split_whole_triangle(const Triangle& triangle, int axis, float posit
 }
 
 }  // namespace clip_detail
+
+// How tight the children's boxes of a straddler are: `exact`, the bounds of the triangle's
+// part in each child cell; `slab`, the bounds of its part in the child's slab on the split
+// axis, cut to the child cell (as tight where the triangle leaves the cell only across the
+// split axis' planes, looser elsewhere, and much cheaper: no polygon). Both are conservative.
+enum class ClipTightness { exact, slab };
 
 // Bounds of triangle ∩ box, inside `box`; empty when the triangle's bounds miss the box.
 // When clipping leaves nothing although the bounds overlap the box (the triangle passes by a
@@ -402,24 +414,32 @@ inline Aabb clip_triangle_bounds(const Triangle& triangle, const Aabb& box) {
 }
 
 // Both children's clipped bounds of a triangle that straddles the plane `position` on `axis`
-// of `cell` (the kd builders' straddlers): the polygon triangle ∩ cell is clipped once, then
-// split at the plane. A side left empty falls back to the triangle's bounds ∩ that child
+// of `cell` (the kd builders' straddlers). `part` is a box known to hold triangle ∩ cell (its
+// clipped bounds in the cell; the triangle's bounds when there are none): the children's
+// boxes never leave it. `exact`: the polygon triangle ∩ cell is clipped once, then split at
+// the plane; `slab`: see ClipTightness. A side left empty falls back to `part` ∩ that child
 // cell, as clip_triangle_bounds does.
-inline void clip_triangle_split(const Triangle& triangle, const Aabb& cell, int axis,
-                                float position, Aabb& below, Aabb& above) {
+inline void clip_triangle_split(const Triangle& triangle, const Aabb& cell, const Aabb& part,
+                                int axis, float position, Aabb& below, Aabb& above,
+                                ClipTightness tightness) {
   using namespace clip_detail;
   const Aabb bounds = triangle.bounds();
   Aabb below_cell = cell, above_cell = cell;
   below_cell.hi[axis] = position;
   above_cell.lo[axis] = position;
-  const Aabb below_limit = intersection(bounds, below_cell);
-  const Aabb above_limit = intersection(bounds, above_cell);
+  const Aabb known = intersection(bounds, part);
+  const Aabb below_limit = intersection(known, below_cell);
+  const Aabb above_limit = intersection(known, above_cell);
   below = below_limit;
   above = above_limit;
   Aabb b, a;
   if (bounds.lo.x >= cell.lo.x && bounds.lo.y >= cell.lo.y && bounds.lo.z >= cell.lo.z &&
       bounds.hi.x <= cell.hi.x && bounds.hi.y <= cell.hi.y && bounds.hi.z <= cell.hi.z) {
-    split_whole_triangle(triangle, axis, position, below_limit, above_limit, b, a);
+    constexpr double kInf = std::numeric_limits<double>::infinity();
+    split_in_slab(triangle, axis, -kInf, position, kInf, below_limit, above_limit, b, a);
+  } else if (tightness == ClipTightness::slab) {
+    split_in_slab(triangle, axis, cell.lo[axis], position, cell.hi[axis], below_limit, above_limit,
+                  b, a);
   } else {
     const ClipTriangle tri(triangle);
     Polygon poly;
@@ -429,6 +449,13 @@ inline void clip_triangle_split(const Triangle& triangle, const Aabb& cell, int 
   }
   if (!b.empty()) below = b;
   if (!a.empty()) above = a;
+}
+
+// The same with no known part: the exact split.
+inline void clip_triangle_split(const Triangle& triangle, const Aabb& cell, int axis,
+                                float position, Aabb& below, Aabb& above) {
+  clip_triangle_split(triangle, cell, triangle.bounds(), axis, position, below, above,
+                      ClipTightness::exact);
 }
 
 // The SBVH's split of a reference at a plane: the bounds of the triangle's part on each side
@@ -443,7 +470,8 @@ inline void split_triangle_bounds(const Triangle& triangle, const Aabb& box, int
   right_limit.lo[axis] = std::max(right_limit.lo[axis], position);
   left_limit = intersection(left_limit, bounds);
   right_limit = intersection(right_limit, bounds);
-  split_whole_triangle(triangle, axis, position, left_limit, right_limit, left, right);
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  split_in_slab(triangle, axis, -kInf, position, kInf, left_limit, right_limit, left, right);
 }
 
 // The SBVH's spatial binning: an estimate of the bounds of the triangle's part on each side of

@@ -263,7 +263,8 @@ void partition_binned(std::span<const PrimRef> prims, std::span<const Triangle> 
           PrimRef& b = below[ob++];
           PrimRef& a = above[oa++];
           b.id = a.id = r.id;
-          clip_triangle_split(t, cell, axis, position, b.bounds, a.bounds);
+          clip_triangle_split(t, cell, r.bounds, axis, position, b.bounds, a.bounds,
+                              ClipTightness::slab);
           cb.extend(b.bounds);
           ca.extend(a.bounds);
           break;

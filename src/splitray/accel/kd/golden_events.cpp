@@ -262,7 +262,8 @@ void split_golden_prims(GoldenPrims& node, std::span<const Triangle> triangles, 
   const auto clip = [&](std::size_t begin, std::size_t end) {
     for (std::size_t k = begin; k < end; ++k) {
       const Triangle& t = triangles[ids[straddlers[k]]];
-      clip_triangle_split(t, cell, axis, position, clipped[2 * k], clipped[2 * k + 1]);
+      clip_triangle_split(t, cell, bounds[straddlers[k]], axis, position, clipped[2 * k],
+                          clipped[2 * k + 1], ClipTightness::slab);
     }
   };
   if (parallel)
