@@ -4,6 +4,7 @@
 
 #include "build_trace.hpp"
 #include "hybrid_bench.hpp"
+#include "kd_costs.hpp"
 #include "knn_bench.hpp"
 #include "neural_bench.hpp"
 
@@ -18,7 +19,8 @@ void add_bench_subcommands(CLI::App& bench) {
   add_neural_bench_options(*neural, *neural_options);
   neural->callback([neural_options] {
     // Non-zero when a neural tree answered differently: the report says where.
-    if (const int code = run_neural_bench(*neural_options); code != 0) throw CLI::RuntimeError(code);
+    if (const int code = run_neural_bench(*neural_options); code != 0)
+      throw CLI::RuntimeError(code);
   });
 
   auto build_trace_options = std::make_shared<BuildTraceOptions>();
@@ -28,6 +30,14 @@ void add_bench_subcommands(CLI::App& bench) {
       "and Embree low/medium/high on every real mesh; JSON and Markdown reports");
   add_build_trace_options(*build_trace, *build_trace_options);
   build_trace->callback([build_trace_options] { build_trace_command(*build_trace_options); });
+
+  auto kd_costs_options = std::make_shared<KdCostsOptions>();
+  CLI::App* kd_costs = bench.add_subcommand(
+      "kd-costs",
+      "The kd-tree's own SAH constants: trees built over a range of K_T, their expected node "
+      "steps and triangle tests fitted to measured trace times (what a step costs in tests)");
+  add_kd_costs_options(*kd_costs, *kd_costs_options);
+  kd_costs->callback([kd_costs_options] { kd_costs_command(*kd_costs_options); });
 
   auto knn_options = std::make_shared<KnnBenchOptions>();
   CLI::App* knn = bench.add_subcommand(
@@ -48,7 +58,8 @@ void add_bench_subcommands(CLI::App& bench) {
   add_hybrid_bench_options(*hybrid, *hybrid_options);
   hybrid->callback([hybrid_options] {
     // Non-zero when a target that holds on every machine was missed: the report says which.
-    if (const int code = run_hybrid_bench(*hybrid_options); code != 0) throw CLI::RuntimeError(code);
+    if (const int code = run_hybrid_bench(*hybrid_options); code != 0)
+      throw CLI::RuntimeError(code);
   });
 }
 

@@ -123,6 +123,8 @@ Json measure(const Structure& s, std::span<const Triangle> triangles, std::vecto
   row["build_ms_runs"] = build_ms;
   row["make_accel_ms"] = median(wall_ms);  // including what the structure leaves out of build_ms
   row["sah_cost"] = stats.sah_cost ? Json(*stats.sah_cost) : Json(nullptr);
+  row["sah_kt"] = stats.sah_traversal_cost;  // the constants sah_cost was computed with
+  row["sah_ki"] = stats.sah_intersection_cost;
   row["cost_evals"] = stats.cost_evals;
   row["nodes"] = stats.nodes;
   row["leaves"] = stats.leaves;
@@ -206,7 +208,9 @@ void add_build_trace_options(CLI::App& command, BuildTraceOptions& options) {
   command.add_option("--threads", options.threads, "Worker threads (0 = all cores)")
       ->check(CLI::NonNegativeNumber);
   command.add_option("--seed", options.seed, "Seed of the ray sets");
-  command.add_option("--kt", options.traversal_cost, "SAH cost of traversing a node (K_T)")
+  command
+      .add_option("--kt", options.traversal_cost,
+                  "SAH cost of traversing a node (K_T) for every structure")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   command

@@ -7,8 +7,9 @@
 #include "splitray/core/errors.hpp"
 
 int main(int argc, char** argv) {
-  CLI::App app{"splitray_bench: benchmarks measured against Embree, nanoflann and FLANN in the same run",
-               "splitray_bench"};
+  CLI::App app{
+      "splitray_bench: benchmarks measured against Embree, nanoflann and FLANN in the same run",
+      "splitray_bench"};
   app.require_subcommand(1);
   splitray::bench::add_bench_subcommands(app);
   try {

@@ -117,6 +117,7 @@ TEST_F(Cli, HelpForTheProgramAndEveryCommand) {
       {"knn", {"INPUT", "--k", "--json"}},
       {"bench", {"build-trace"}},
       {"bench build-trace", {}},
+      {"bench kd-costs", {"--kt", "--ki", "--builder", "--meshes", "--json"}},
   };
   for (const auto& [command, options] : commands) {
     const Result help = run(command + " --help");
@@ -395,6 +396,25 @@ TEST_F(Cli, AnimateRefitsABvhOnHorseCollapse) {
   expect_failure(common + " --accel kd --refit", "--refit");
   expect_failure(common + " --accel bvh", "--refit");
   expect_failure(common + " --accel bvh --refit --builder nope", "nope");
+}
+
+// bench kd-costs: one tree per K_T, the SAH's two sums rising and falling as they must (fewer,
+// larger leaves: fewer node steps, more triangle tests), and a fit per ray kind.
+TEST_F(Cli, KdCostsFitsStepsAndTestsPerTree) {
+  const json report = run_json("bench kd-costs --quick --meshes horse");
+  ASSERT_EQ(report["meshes"].size(), 1u);
+  const json& trees = report["meshes"][0]["trees"];
+  ASSERT_EQ(trees.size(), 3u);  // --quick: K_T 5, 15, 60
+  for (std::size_t i = 1; i < trees.size(); ++i) {
+    EXPECT_LT(trees[i]["nodes"], trees[i - 1]["nodes"]);
+    EXPECT_LT(trees[i]["steps"], trees[i - 1]["steps"]);
+    EXPECT_GT(trees[i]["tests"], trees[i - 1]["tests"]);
+    EXPECT_GT(trees[i]["primary"].get<double>(), 0);
+  }
+  for (const char* kind : {"primary", "diffuse"})
+    EXPECT_TRUE(report["meshes"][0]["fits"].contains(kind)) << kind;
+  EXPECT_EQ(report["relative"].size(), 3u);
+  expect_failure("bench kd-costs --quick --builder nope", "nope");
 }
 
 // --plot of bench build-trace and animate: a whole PNG (drawn by scripts/plot_*.py) and no

@@ -413,7 +413,15 @@ TEST(KdAccel, StatisticsDescribeTheTree) {
   ASSERT_TRUE(s.sah_cost.has_value());
   EXPECT_GT(*s.sah_cost, 0);
   // Far below a single leaf of everything (K_I * N), as a good tree must be.
-  EXPECT_LT(*s.sah_cost, 0.01 * config.intersection_cost * static_cast<double>(triangles.size()));
+  EXPECT_LT(*s.sah_cost, 0.01 * kSharedIntersectionCost * static_cast<double>(triangles.size()));
+  // Named with the constants it was computed with, and the sum of its two parts.
+  EXPECT_EQ(s.sah_traversal_cost, kSharedTraversalCost);
+  EXPECT_EQ(s.sah_intersection_cost, kSharedIntersectionCost);
+  ASSERT_TRUE(s.sah_node_steps && s.sah_triangle_tests);
+  EXPECT_NEAR(
+      *s.sah_cost,
+      kSharedTraversalCost * *s.sah_node_steps + kSharedIntersectionCost * *s.sah_triangle_tests,
+      1e-9 * *s.sah_cost);
   // Every triangle is referenced by some leaf.
   std::vector<bool> seen(triangles.size());
   for (const std::uint32_t id : tree.prim_ids) seen.at(id) = true;
@@ -422,14 +430,15 @@ TEST(KdAccel, StatisticsDescribeTheTree) {
 
 // An independent O(n^2)-per-node SAH builder with the same policy as build_kd_sah (each
 // triangle keeps the clipped bounds it had; only triangles cut by a plane are clipped to the
-// child cells (accel/triangle_clip.hpp); planar triangles tried on both sides; ties go to the first candidate in the
-// order axis, position, below before above). Its tree must equal the event sweep's exactly.
+// child cells (accel/triangle_clip.hpp); planar triangles tried on both sides; ties go to the first
+// candidate in the order axis, position, below before above). Its tree must equal the event sweep's
+// exactly.
 class NaiveSahBuilder {
  public:
   NaiveSahBuilder(std::span<const Triangle> triangles, const BuildConfig& config)
       : triangles_(triangles),
         config_(config),
-        sah_(config),
+        sah_(config_),
         max_depth_(kd_max_depth(config, triangles.size())) {}
 
   struct Item {

@@ -17,16 +17,21 @@ namespace splitray {
 // the expansion builder, whose exact decisions beat those learnt from a few samples there.
 inline constexpr int kNeuralTopMinPrims = 4096;
 
+// The SAH constants every structure builds with by default (the literature's). The kd-tree's
+// measured optimum is higher (`splitray bench kd-costs`: a node step of the 8-byte-node walk
+// costs about 3.5 triangle tests of the 8-wide SIMD leaf test; README "kd-tree cost constants").
+inline constexpr float kSharedTraversalCost = 15, kSharedIntersectionCost = 20;
+
 // Build settings shared by every structure; each reads the fields that apply to it.
 struct BuildConfig {
-  std::string builder;           // empty = the structure's default builder
-  float traversal_cost = 15;     // K_T of the SAH
-  float intersection_cost = 20;  // K_I of the SAH
-  float empty_bonus = 0.2f;      // SAH discount for cutting off empty space (Wald & Havran: 0.2)
-  int max_depth = 0;             // 0 = automatic (8 + 1.3 log2 N, as in pbrt / Wald & Havran)
-  int max_leaf_prims = 1;        // a node with this many or fewer primitives is never split
-  int bins = 64;                 // binned builders
-  int threads = 0;               // 0 = all cores; the built structure never depends on it
+  std::string builder;                                // empty = the structure's default builder
+  float traversal_cost = kSharedTraversalCost;        // K_T of the SAH
+  float intersection_cost = kSharedIntersectionCost;  // K_I of the SAH
+  float empty_bonus = 0.2f;  // SAH discount for cutting off empty space (Wald & Havran: 0.2)
+  int max_depth = 0;         // 0 = automatic (8 + 1.3 log2 N, as in pbrt / Wald & Havran)
+  int max_leaf_prims = 1;    // a node with this many or fewer primitives is never split
+  int bins = 64;             // binned builders
+  int threads = 0;           // 0 = all cores; the built structure never depends on it
   // --builder neural (paper 003): the model file (empty = the shipped default for the cost)
   // and the builder that expands the inferred top's leaves (empty = the structure's default).
   std::string model;
@@ -52,7 +57,11 @@ struct AccelStats {
   double mean_leaf_prims = 0;  // primitive references per non-empty leaf
   std::size_t prim_refs = 0;   // primitive references in all leaves
   std::size_t bytes = 0;
-  std::optional<double> sah_cost;      // from sah_cost.hpp, comparable across structures
+  std::optional<double> sah_cost;  // from sah_cost.hpp, comparable across structures
+  // Its parts: expected node steps and triangle tests of a ray through the root
+  // (sah_cost = sah_traversal_cost * steps + sah_intersection_cost * tests).
+  std::optional<double> sah_node_steps, sah_triangle_tests;
+  float sah_traversal_cost = 0, sah_intersection_cost = 0;  // the K_T and K_I it was computed with
   std::uint64_t cost_evals = 0;        // SAH cost evaluations made while building
   std::optional<double> inference_ms;  // --builder neural: the network's greedy top inference
   std::optional<int> top_depth;        // --builder neural: levels of the inferred top

@@ -155,7 +155,7 @@ void Bih::fill_stats(AccelStats& stats, float traversal_cost, float intersection
   stats.mean_leaf_prims =
       static_cast<double>(stats.prim_refs) /
       static_cast<double>(std::max<std::size_t>(stats.leaves - stats.empty_leaves, 1));
-  stats.sah_cost = cost.value();
+  cost.report(stats);
 }
 
 }  // namespace splitray

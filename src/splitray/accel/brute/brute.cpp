@@ -22,7 +22,7 @@ class BruteAccel final : public Accel {
     stats_.bytes = triangles_.size() * sizeof(Triangle);
     SahCost cost(box, config.traversal_cost, config.intersection_cost);
     cost.leaf(box, triangles_.size());
-    stats_.sah_cost = cost.value();
+    cost.report(stats_);
     stats_.build_ms = timer.ms();
   }
 

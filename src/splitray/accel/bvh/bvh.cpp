@@ -121,7 +121,7 @@ void Bvh::fill_stats(AccelStats& stats, float traversal_cost, float intersection
   }
   stats.mean_leaf_depth = depth_sum / static_cast<double>(stats.leaves);
   stats.mean_leaf_prims = static_cast<double>(stats.prim_refs) / static_cast<double>(stats.leaves);
-  stats.sah_cost = cost.value();
+  cost.report(stats);
 }
 
 }  // namespace splitray

@@ -81,7 +81,7 @@ AccelStats kd_tree_stats(const KdTree& tree, const BuildConfig& config) {
       filled > 0 ? static_cast<double>(s.prim_refs) / static_cast<double>(filled) : 0.0;
   s.mean_leaf_depth = s.leaves > 0 ? walk.leaf_depth_sum / static_cast<double>(s.leaves) : 0.0;
   s.bytes = tree.nodes.size() * sizeof(KdNode) + tree.prim_ids.size() * sizeof(std::uint32_t);
-  s.sah_cost = walk.cost.value();
+  walk.cost.report(s);
   return s;
 }
 
