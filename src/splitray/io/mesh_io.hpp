@@ -3,6 +3,7 @@
 #include <string>
 #include <vector>
 
+#include "splitray/core/errors.hpp"  // the Error every loader throws
 #include "splitray/core/mesh.hpp"
 #include "splitray/core/scene.hpp"
 

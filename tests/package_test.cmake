@@ -1,0 +1,25 @@
+# ctest's package_test: installs the build tree into a fresh prefix, builds
+# tests/package_consumer against it with find_package(splitray 0.1), runs the program on the
+# vendored horse, and checks that a version the package is not compatible with is refused.
+# Arguments: -DBUILD_DIR=... -DSOURCE_DIR=... -DWORK_DIR=... -DMESH=...
+file(REMOVE_RECURSE ${WORK_DIR})
+function(run)
+  execute_process(COMMAND ${ARGN} RESULT_VARIABLE code OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT code EQUAL 0)
+    message(FATAL_ERROR "failed (${code}): ${ARGN}\n${out}\n${err}")
+  endif()
+endfunction()
+run(${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${WORK_DIR}/prefix)
+run(${CMAKE_COMMAND} -S ${SOURCE_DIR}/tests/package_consumer -B ${WORK_DIR}/build
+    -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH=${WORK_DIR}/prefix)
+run(${CMAKE_COMMAND} --build ${WORK_DIR}/build)
+run(${WORK_DIR}/build/consumer ${MESH})
+# find_package(splitray 1.0) must fail: the version file says 0.1.x.
+file(WRITE ${WORK_DIR}/v1/CMakeLists.txt
+  "cmake_minimum_required(VERSION 3.25)\nproject(v1 CXX)\nfind_package(splitray 1.0 REQUIRED)\n")
+execute_process(COMMAND ${CMAKE_COMMAND} -S ${WORK_DIR}/v1 -B ${WORK_DIR}/v1/build
+                -DCMAKE_PREFIX_PATH=${WORK_DIR}/prefix RESULT_VARIABLE code OUTPUT_QUIET ERROR_QUIET)
+if(code EQUAL 0)
+  message(FATAL_ERROR "find_package(splitray 1.0) accepted the 0.1 package")
+endif()
+file(REMOVE_RECURSE ${WORK_DIR})
