@@ -17,6 +17,8 @@ packages=(
   python3-matplotlib
   # neural builder training (train/, paper 003): only splitray-train links it
   libtorch-dev
+  # distributed render and animate under mpirun (optional at build time)
+  libopenmpi-dev openmpi-bin
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
 )

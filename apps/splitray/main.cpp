@@ -8,12 +8,17 @@
 
 #include "commands.hpp"
 #include "splitray/core/errors.hpp"
+#include "splitray/dist/world.hpp"
 
 namespace {
 
-int fail(const char* message) {
+// Under mpirun an error every rank knows of is printed by rank 0 only, and a rank that failed
+// alone ends the job rather than leaving the others waiting for it.
+int fail(const std::exception& error, const char* message) {
   std::fflush(stdout);
-  fmt::print(stderr, "splitray: {}\n", message);
+  if (splitray::dist::prints_error(error)) fmt::print(stderr, "splitray: {}\n", message);
+  std::fflush(stderr);
+  splitray::dist::end_after_error(error);
   return 1;
 }
 
@@ -27,8 +32,9 @@ int main(int argc, char** argv) {
   app.set_version_flag("-V,--version", "splitray " SPLITRAY_VERSION, "Print the version and exit");
   app.require_subcommand(1);
   app.option_defaults()->always_capture_default();
-  app.footer("Errors are printed as 'splitray: <message>' with exit code 1; usage errors exit "
-             "with CLI11's codes (non-zero).");
+  app.footer(
+      "Errors are printed as 'splitray: <message>' with exit code 1; usage errors exit "
+      "with CLI11's codes (non-zero).");
 
   splitray::app::add_render_command(app);
   splitray::app::add_build_command(app);
@@ -44,18 +50,19 @@ int main(int argc, char** argv) {
     // Name an unknown command rather than only saying that a command is required.
     if (argc > 1 && argv[1][0] != '-') {
       bool known = false;
-      for (const CLI::App* command : app.get_subcommands({})) known = known || command->check_name(argv[1]);
+      for (const CLI::App* command : app.get_subcommands({}))
+        known = known || command->check_name(argv[1]);
       if (!known) throw CLI::ExtrasError({argv[1]});
     }
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   } catch (const splitray::Error& e) {
-    return fail(e.what());
-  } catch (const std::bad_alloc&) {
-    return fail("out of memory");
+    return fail(e, e.what());
+  } catch (const std::bad_alloc& e) {
+    return fail(e, "out of memory");
   } catch (const std::exception& e) {
-    return fail(e.what());
+    return fail(e, e.what());
   }
   return 0;
 }

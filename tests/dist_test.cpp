@@ -1,0 +1,176 @@
+// Crop windows and distributed runs end to end: crops tiled over the image assemble to the
+// full render; `mpirun -np 2|3 splitray render` (loopback, --oversubscribe) writes the same
+// PNG as one process. The MPI tests skip with a message where MPI was not built in.
+#include <gtest/gtest.h>
+#include <stb/stb_image.h>
+#include <sys/wait.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "test_data.hpp"
+
+namespace fs = std::filesystem;
+using splitray::test::quote;
+using splitray::test::read_text;
+
+namespace {
+
+const std::string kBinary = SPLITRAY_BINARY_DIR "/apps/splitray/splitray";
+
+struct Outcome {
+  int status = -1;
+  std::string err;
+};
+
+Outcome shell(const std::string& command, const fs::path& dir) {
+  const fs::path err = dir / "stderr.txt";
+  const int raw =
+      std::system((command + " > /dev/null 2> " + quote(err.string()) + " < /dev/null").c_str());
+  Outcome run;
+  run.status = raw != -1 && WIFEXITED(raw) ? WEXITSTATUS(raw) : 128;
+  run.err = read_text(err);
+  return run;
+}
+
+Outcome run_splitray(const std::string& args, const fs::path& dir) {
+  return shell(quote(kBinary) + " " + args, dir);
+}
+
+// mpirun as root needs its consent variables; one machine, so --oversubscribe and no
+// single-copy mechanism (containers often forbid the ptrace it uses).
+Outcome mpirun(int ranks, const std::string& args, const fs::path& dir) {
+  return shell("OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 " +
+                   quote(SPLITRAY_MPIEXEC) +
+                   " --oversubscribe --mca btl_vader_single_copy_mechanism none -np " +
+                   std::to_string(ranks) + " " + quote(kBinary) + " " + args,
+               dir);
+}
+
+#define REQUIRE_MPI() \
+  if (std::string(SPLITRAY_MPIEXEC).empty()) GTEST_SKIP() << "built without MPI (mpirun): skipped"
+
+struct Png {
+  int width = 0, height = 0;
+  std::vector<unsigned char> rgb;
+};
+
+Png decode(const fs::path& path) {
+  Png png;
+  int channels = 0;
+  unsigned char* data = stbi_load(path.string().c_str(), &png.width, &png.height, &channels, 3);
+  if (!data) return png;
+  png.rgb.assign(data, data + static_cast<std::size_t>(png.width) * png.height * 3);
+  stbi_image_free(data);
+  return png;
+}
+
+fs::path fresh_dir() {
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  return splitray::test::temp_dir(std::string("dist_") + info->name());
+}
+
+// The horse (vendored, real scan data) at an odd size, so that crops do not fall on tiles.
+const std::string kScene =
+    "render " + quote(splitray::test::vendored_file("horse/horse.obj.gz")) + " -W 203 -H 157 -t 2";
+
+}  // namespace
+
+TEST(Crop, WindowsTileTheImageExactly) {
+  const fs::path dir = fresh_dir();
+  ASSERT_EQ(run_splitray(kScene + " -o " + quote((dir / "full.png").string()), dir).status, 0);
+  const Png full = decode(dir / "full.png");
+  ASSERT_EQ(full.width, 203);
+  // Uneven cuts: pixel edges at ceil(W x) meet without gap or overlap.
+  const std::vector<double> xs = {0, 0.37, 0.5, 1}, ys = {0, 0.61, 1};
+  std::vector<unsigned char> assembled(full.rgb.size(), 0);
+  std::vector<int> covered(static_cast<std::size_t>(full.width) * full.height, 0);
+  for (std::size_t i = 0; i + 1 < xs.size(); ++i)
+    for (std::size_t j = 0; j + 1 < ys.size(); ++j) {
+      const fs::path part = dir / ("crop-" + std::to_string(i) + std::to_string(j) + ".png");
+      const std::string crop = std::to_string(xs[i]) + "," + std::to_string(xs[i + 1]) + "," +
+                               std::to_string(ys[j]) + "," + std::to_string(ys[j + 1]);
+      const Outcome run =
+          run_splitray(kScene + " --crop " + crop + " -o " + quote(part.string()), dir);
+      ASSERT_EQ(run.status, 0) << run.err;
+      const Png png = decode(part);
+      const int x0 = static_cast<int>(std::ceil(xs[i] * full.width));
+      const int y0 = static_cast<int>(std::ceil(ys[j] * full.height));
+      ASSERT_EQ(png.width, static_cast<int>(std::ceil(xs[i + 1] * full.width)) - x0);
+      ASSERT_EQ(png.height, static_cast<int>(std::ceil(ys[j + 1] * full.height)) - y0);
+      for (int y = 0; y < png.height; ++y)
+        for (int x = 0; x < png.width; ++x) {
+          const std::size_t at = static_cast<std::size_t>(y0 + y) * full.width + x0 + x;
+          ++covered[at];
+          for (int c = 0; c < 3; ++c)
+            assembled[at * 3 + c] = png.rgb[(static_cast<std::size_t>(y) * png.width + x) * 3 + c];
+        }
+    }
+  for (const int n : covered) ASSERT_EQ(n, 1);
+  EXPECT_TRUE(assembled == full.rgb) << "the crops differ from the full image";
+  fs::remove_all(dir);
+}
+
+TEST(Crop, BadWindowsAreRefusedBeforeAnyWork) {
+  const fs::path dir = fresh_dir();
+  const fs::path out = dir / "out.png";
+  for (const std::string crop : {"0.5,0.5,0,1", "0,1.5,0,1", "0,1,0", "a,b,c,d", "0.5,0.501,0,1"}) {
+    const Outcome run =
+        run_splitray(kScene + " --crop " + crop + " -o " + quote(out.string()), dir);
+    EXPECT_EQ(run.status, 1) << crop;
+    EXPECT_NE(run.err.find("--crop " + crop), std::string::npos) << run.err;
+    EXPECT_FALSE(fs::exists(out)) << crop;
+  }
+  fs::remove_all(dir);
+}
+
+TEST(MpiRender, TwoAndThreeRanksWriteTheSingleProcessImage) {
+  REQUIRE_MPI();
+  const fs::path dir = fresh_dir();
+  // A larger image of the default scene (reflections, refraction, the dragon), small tiles so
+  // that the queue hands out many.
+  const std::string args = "-W 400 -H 300 -t 1 --tile-size 32";
+  ASSERT_EQ(run_splitray("render " + args + " -o " + quote((dir / "one.png").string()), dir).status,
+            0);
+  const std::string one = read_text(dir / "one.png");
+  ASSERT_FALSE(one.empty());
+  for (const int ranks : {2, 3}) {
+    const fs::path out = dir / ("ranks" + std::to_string(ranks) + ".png");
+    const Outcome run = mpirun(ranks, "render " + args + " -o " + quote(out.string()), dir);
+    ASSERT_EQ(run.status, 0) << run.err;
+    EXPECT_TRUE(read_text(out) == one) << ranks << " ranks: the PNG differs";
+  }
+  // A crop window distributed the same way.
+  ASSERT_EQ(run_splitray("render " + args + " --crop 0.2,0.9,0.1,0.7 -o " +
+                             quote((dir / "crop1.png").string()),
+                         dir)
+                .status,
+            0);
+  const Outcome run = mpirun(
+      2, "render " + args + " --crop 0.2,0.9,0.1,0.7 -o " + quote((dir / "crop2.png").string()),
+      dir);
+  ASSERT_EQ(run.status, 0) << run.err;
+  EXPECT_TRUE(read_text(dir / "crop2.png") == read_text(dir / "crop1.png"));
+  fs::remove_all(dir);
+}
+
+TEST(MpiRender, AFailingSceneEndsEveryRankWithOneMessage) {
+  REQUIRE_MPI();
+  const fs::path dir = fresh_dir();
+  const fs::path bad = dir / "bad.obj";
+  {
+    std::FILE* f = std::fopen(bad.c_str(), "w");
+    std::fputs("v 0 0 0\nv 1 0 0\nf 1 2 9\n", f);
+    std::fclose(f);
+  }
+  const fs::path out = dir / "out.png";
+  const Outcome run =
+      mpirun(2, "render " + quote(bad.string()) + " -o " + quote(out.string()), dir);
+  EXPECT_NE(run.status, 0);
+  EXPECT_NE(run.err.find("bad.obj"), std::string::npos) << run.err;
+  EXPECT_FALSE(fs::exists(out));
+  fs::remove_all(dir);
+}
