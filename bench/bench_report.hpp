@@ -1,7 +1,6 @@
 #pragma once
 // The Markdown tables of a build-trace report (for people; the JSON is for machines).
 #include <nlohmann/json.hpp>
-
 #include <string>
 #include <vector>
 
@@ -10,6 +9,10 @@
 namespace splitray::bench {
 
 std::string markdown_report(const nlohmann::ordered_json& report);
+
+// The median of `values` (the mean of the middle two for an even count; 0 when empty): what
+// every benchmark reports of its repeated runs.
+double median(std::vector<double> values);
 
 // Every benchmark's outputs by the one rule (cli/json_output.hpp): --json prints the report on
 // stdout (and nothing else goes there), --json-out writes it, --markdown FILE writes the tables,

@@ -51,13 +51,6 @@ std::vector<Structure> structures(const std::vector<std::string>& accels) {
   return list;
 }
 
-double median(std::vector<double> values) {
-  if (values.empty()) return 0;
-  std::sort(values.begin(), values.end());
-  const std::size_t n = values.size();
-  return n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
-}
-
 struct Checksum {
   std::uint64_t hits = 0, id_checksum = 0;  // id_checksum: sum of (prim + 1), as `trace`
 };

@@ -38,13 +38,6 @@ namespace fs = std::filesystem;
 // The targets of issue 8 that hold on every machine (frame-time targets need a real GPU).
 constexpr double kMaxCpuRayShare = 0.20, kMinPsnrDb = 35, kMinShadowFixShare = 0.90;
 
-double median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
 void progress(const std::string& message) { std::cerr << "bench hybrid: " << message << std::endl; }
 
 std::uint32_t add_material(Scene& scene, Material m) {

@@ -8,30 +8,29 @@
 // `splitray_bench hybrid`.
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
-
-#include "json_output.hpp"
 #include <string>
 #include <vector>
 
+#include "json_output.hpp"
 #include "splitray/core/scene.hpp"
 
 namespace splitray::bench {
 
 struct HybridBenchOptions {
-  std::string scene;        // mesh or JSON scene; empty = hybrid_bench_scene()
-  std::string camera;       // "EX,EY,EZ,TX,TY,TZ[,FOV]"; empty = the scene's
+  std::string scene;   // mesh or JSON scene; empty = hybrid_bench_scene()
+  std::string camera;  // "EX,EY,EZ,TX,TY,TZ[,FOV]"; empty = the scene's
   int width = 1024, height = 768;
   int max_depth = 5;
-  int frames = 0;           // frames per throughput measurement; 0 = 8 (quick: 3)
-  int runs = 0;             // Whitted renders (median); 0 = 3 (quick: 1)
+  int frames = 0;  // frames per throughput measurement; 0 = 8 (quick: 3)
+  int runs = 0;    // Whitted renders (median); 0 = 3 (quick: 1)
   int blur_kernel = 5;
   int shadow_map_size = 2048;
   std::string accel = "kd";
   int threads = 0;
-  bool quick = false;       // smoke test: 320x240, vendored meshes only
+  bool quick = false;  // smoke test: 320x240, vendored meshes only
   cli::JsonOutput json;
   std::string markdown_path, plot_path;
-  std::string images_dir;   // writes hybrid.png, whitted.png and shadow_errors.png there
+  std::string images_dir;  // writes hybrid.png, whitted.png and shadow_errors.png there
 };
 
 // The default scene: real meshes of ../shared/data (four Stanford dragons, Sumner's cats and

@@ -28,12 +28,6 @@ using Json = nlohmann::ordered_json;
 constexpr std::array kKinds = {RayKind::primary, RayKind::diffuse};
 const char* kind_name(RayKind kind) { return kind == RayKind::primary ? "primary" : "diffuse"; }
 
-double median(std::vector<double> values) {
-  std::sort(values.begin(), values.end());
-  const std::size_t n = values.size();
-  return n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
-}
-
 // Median ns per ray of `runs` timed batched passes, after one warm-up pass.
 double ns_per_ray(const Accel& accel, std::span<const Ray> rays, int runs) {
   std::vector<Hit> hits(rays.size());

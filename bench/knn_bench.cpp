@@ -38,12 +38,6 @@ double cpu_ms() {
   return ms(usage.ru_utime) + ms(usage.ru_stime);
 }
 
-double median(std::vector<double> values) {
-  std::sort(values.begin(), values.end());
-  const std::size_t n = values.size();
-  return n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
-}
-
 std::string vendored(const std::string& relative) {
   return (std::filesystem::path(SPLITRAY_SOURCE_DIR) / "data" / relative).string();
 }

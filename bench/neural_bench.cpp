@@ -45,13 +45,6 @@ constexpr std::size_t kDefaultQueries = 200000, kQuickQueries = 10000;
 // The training meshes; models/README.md may name more (read below).
 const std::vector<std::string> kTrainingMeshes = {"horse", "cat", "lion", "elephant", "samba"};
 
-double median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
 std::string lower(std::string s) {
   for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   return s;

@@ -12,19 +12,19 @@
 #include <CLI/CLI.hpp>
 #include <cstdint>
 #include <nlohmann/json.hpp>
-
-#include "json_output.hpp"
 #include <string>
 #include <vector>
+
+#include "json_output.hpp"
 
 namespace splitray::bench {
 
 struct NeuralBenchOptions {
-  int runs = 0;             // timed runs per measurement (median); 0 = 5 (quick: 1)
-  std::size_t rays = 0;     // rays per kind; 0 = 262144 (quick: 16384)
-  std::size_t points = 0;   // surface samples for k-NN; 0 = 1M (quick: 50k)
-  std::size_t queries = 0;  // 0 = 200k (quick: 10k)
-  std::vector<int> ks = {1, 8};  // k of the k-nearest queries (paper 003 Fig. 4: k = 1)
+  int runs = 0;                      // timed runs per measurement (median); 0 = 5 (quick: 1)
+  std::size_t rays = 0;              // rays per kind; 0 = 262144 (quick: 16384)
+  std::size_t points = 0;            // surface samples for k-NN; 0 = 1M (quick: 50k)
+  std::size_t queries = 0;           // 0 = 200k (quick: 10k)
+  std::vector<int> ks = {1, 8};      // k of the k-nearest queries (paper 003 Fig. 4: k = 1)
   std::vector<std::string> meshes;   // names or files; empty = every held-out mesh present
   std::string sah_model, vvh_model;  // empty = the shipped models/sah.bin, models/vvh.bin
   std::string kd_expand = "sah", bvh_expand = "binned", point_expand = "vvh";
