@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "test_data.hpp"
 
 namespace fs = std::filesystem;
@@ -172,5 +174,50 @@ TEST(MpiRender, AFailingSceneEndsEveryRankWithOneMessage) {
   EXPECT_NE(run.status, 0);
   EXPECT_NE(run.err.find("bad.obj"), std::string::npos) << run.err;
   EXPECT_FALSE(fs::exists(out));
+  fs::remove_all(dir);
+}
+
+namespace {
+
+// A short real sequence (the collapsing horse, ../shared/data) at a small size: seconds.
+const std::string kFrames = "anim_horse_collapse/frames";
+const std::string kAnimate = " --frames 5 -W 96 -H 72 -t 1 --rays 0";
+
+std::string frame_name(int frame) {
+  char name[32];
+  std::snprintf(name, sizeof name, "frame-%04d.png", frame);
+  return name;
+}
+
+}  // namespace
+
+TEST(MpiAnimate, TwoAndThreeRanksWriteTheSingleProcessFrames) {
+  REQUIRE_MPI();
+  SPLITRAY_REQUIRE_SHARED(first, kFrames + "/horse-collapse-01.obj.gz");
+  const fs::path dir = fresh_dir();
+  const std::string frames = quote(fs::path(first).parent_path().string());
+  const fs::path one = dir / "one";
+  const Outcome single =
+      run_splitray("animate " + frames + kAnimate + " --render " + quote(one.string()), dir);
+  ASSERT_EQ(single.status, 0) << single.err;
+  for (const int ranks : {2, 3}) {
+    const fs::path out = dir / ("ranks" + std::to_string(ranks));
+    const fs::path json = dir / ("ranks" + std::to_string(ranks) + ".json");
+    // Runs of two frames: the second of each is built from the rank's predictor.
+    const Outcome run = mpirun(ranks,
+                               "animate " + frames + kAnimate + " --run-length 2 --render " +
+                                   quote(out.string()) + " --json-out " + quote(json.string()),
+                               dir);
+    ASSERT_EQ(run.status, 0) << run.err;
+    for (int f = 0; f < 5; ++f)
+      EXPECT_TRUE(read_text(out / frame_name(f)) == read_text(one / frame_name(f)))
+          << ranks << " ranks: " << frame_name(f) << " differs";
+    const auto report = nlohmann::json::parse(read_text(json));
+    EXPECT_EQ(report["rendered"], 5);
+    EXPECT_EQ(report["rank_stats"].size(), static_cast<std::size_t>(ranks));
+    int predicted = 0;
+    for (const auto& row : report["frame_rows"]) predicted += row["predicted"].get<bool>();
+    EXPECT_GE(predicted, 1) << "no rank kept its predictor over consecutive frames";
+  }
   fs::remove_all(dir);
 }

@@ -15,6 +15,8 @@
 
 #include "animate_refit.hpp"
 #include "commands.hpp"
+#include "dist_animate.hpp"
+#include "frame_renderer.hpp"
 #include "json_output.hpp"
 #include "options.hpp"
 #include "progress.hpp"
@@ -26,6 +28,7 @@
 #include "splitray/core/parallel.hpp"
 #include "splitray/core/scene.hpp"
 #include "splitray/core/timer.hpp"
+#include "splitray/dist/world.hpp"
 #include "splitray/io/frames.hpp"
 #include "splitray/io/plot_script.hpp"
 #include "splitray/render/ray_sets.hpp"
@@ -49,7 +52,15 @@ struct AnimateCommand {
   cli::JsonOutput json;
   bool refit = false;  // --accel bvh: refit the first frame's BVH instead of predicting splits
   std::string csv, plot, render_dir, results, name;
+  int width = 640, height = 480;  // of the --render frames
+  bool render_only = false;       // --render without the comparison of builds (mpirun's way)
+  bool resume = false;
+  std::size_t run_length = 0;  // frames per hand-out under mpirun, 0 = auto
 };
+
+FrameImageOptions image_options(const AnimateCommand& command) {
+  return {command.render_dir, command.width, command.height, command.accel.build};
+}
 
 struct FrameRow {
   double build_ms_full = 0, build_ms_predicted = 0, build_ms_sah = 0;
@@ -120,63 +131,6 @@ double trace_ms(const Accel& accel, std::span<const Ray> rays, std::vector<Hit>&
   accel.intersect(rays, hits);
   return timer.ms();
 }
-
-// --render DIR: every frame through the Whitted renderer as DIR/frame-NNNN.png. BART scenes
-// keep their materials, lights and camera path; other sequences get a camera framed on the
-// first frame and lights fitted to it once, so that the lighting does not jump between frames.
-class FrameRenderer {
- public:
-  FrameRenderer(const FrameSequence& sequence, const std::vector<Triangle>& first, std::string dir,
-                BuildConfig build)
-      : sequence_(sequence), dir_(std::move(dir)), build_(std::move(build)) {
-    if (dir_.empty()) return;
-    if (auto aff = sequence.scene()) {
-      scene_ = std::move(*aff);
-    } else {
-      Mesh mesh;
-      mesh.name = "frame";
-      scene_ = scene_from_mesh(soup(first, mesh));
-    }
-    fixed_camera_ = scene_.camera ? *scene_.camera : Camera::frame(scene_.bounds());
-    fs::create_directories(dir_);
-  }
-
-  void render(std::size_t index, const std::vector<Triangle>& triangles) {
-    if (dir_.empty()) return;
-    soup(triangles, scene_.meshes[0]);
-    RenderOptions options;
-    options.width = 640;
-    options.height = 480;
-    options.build = build_;
-    options.build.builder.clear();  // the structure's default builder, whatever animate times
-    const Camera camera = sequence_.camera(index).value_or(fixed_camera_);
-    const RenderResult result = render_whitted(scene_, camera, options);
-    if (scene_.lights_fit_view) {  // fitted to the first frame, kept for the others
-      scene_.lights = result.lights;
-      scene_.lights_fit_view = false;
-    }
-    write_image((fs::path(dir_) / fmt::format("frame-{:04d}.png", index)).string(), result.image);
-  }
-
- private:
-  // The triangles as the mesh's vertices, three per face (the frames' order).
-  static Mesh& soup(const std::vector<Triangle>& triangles, Mesh& mesh) {
-    mesh.positions.resize(triangles.size() * 3);
-    mesh.faces.resize(triangles.size());
-    for (std::size_t t = 0; t < triangles.size(); ++t) {
-      const auto base = static_cast<std::uint32_t>(3 * t);
-      for (int k = 0; k < 3; ++k) mesh.positions[base + k] = triangles[t].vertex(k);
-      mesh.faces[t] = {base, base + 1, base + 2};
-    }
-    return mesh;
-  }
-
-  const FrameSequence& sequence_;
-  std::string dir_;
-  BuildConfig build_;
-  Scene scene_;
-  Camera fixed_camera_;
-};
 
 // --csv and --plot of the per-frame rows.
 void write_csv_and_plot(const AnimateCommand& command, const std::string& csv) {
@@ -275,7 +229,7 @@ void run_embree(const AnimateCommand& command, const FrameSequence& sequence,
   double trace_total_ms = 0;  // primary rays per frame: what a refit costs in tracing speed
   std::vector<Hit> hits;
   std::vector<FrameRow> rows(frames.size());
-  FrameRenderer renderer(sequence, frames[0], command.render_dir, command.accel.build);
+  FrameRenderer renderer(sequence, frames[0], image_options(command));
   cli::ProgressBar bar("animate");
   Timer timer;
   const auto scene = make_embree_scene(frames[0], command.accel.build);
@@ -330,9 +284,98 @@ void report(const AnimateCommand& command, const FrameSequence& sequence,
             const std::vector<std::vector<Triangle>>& frames, const std::vector<FrameRow>& rows,
             const std::string& builder);
 
+// --render-only, --resume and every run under mpirun: the frames rendered only, handed out
+// to the ranks (dist_animate.hpp); rank 0 reports.
+void run_render(const AnimateCommand& command, const FrameSequence& sequence) {
+  if (command.render_dir.empty())
+    throw Error(dist::world().distributed() ? "mpirun" : "--render-only",
+                "animate renders frames here: give --render DIR");
+  if (command.accel.accel != "kd")
+    throw Error("--accel " + command.accel.accel,
+                "frames are rendered through predicted kd rebuilds (--accel kd) when rendering "
+                "only or under mpirun");
+  for (const auto& [name, value] : {std::pair{"--csv", &command.csv},
+                                    {"--plot", &command.plot},
+                                    {"--results", &command.results}})
+    if (!value->empty())
+      throw Error(name,
+                  "compares builds in one process: not with --render-only, --resume or "
+                  "under mpirun");
+  const ThreadLimit limit(command.accel.build.threads);
+  const bool lead = dist::world().rank == 0;
+  cli::ProgressBar bar(lead ? "render" : "");
+  AnimationRenderOptions options;
+  options.image = image_options(command);
+  options.build = command.accel.build;
+  options.predictor = command.config;
+  options.max_frames = command.max_frames;
+  options.run_length = command.run_length;
+  options.resume = command.resume;
+  options.progress = [&](double done) { bar.update(done); };
+  const AnimationRender result = render_animation(sequence, options);
+  bar.finish();
+  if (!lead) return;
+  std::vector<RenderedFrame> frames = result.rendered;
+  std::sort(frames.begin(), frames.end(),
+            [](const RenderedFrame& a, const RenderedFrame& b) { return a.frame < b.frame; });
+  const double per_s =
+      result.wall_ms > 0 ? 1e3 * static_cast<double>(frames.size()) / result.wall_ms : 0;
+  Json rendered = Json::array(), ranks = Json::array();
+  for (const RenderedFrame& f : frames)
+    rendered.push_back({{"frame", f.frame},
+                        {"rank", f.rank},
+                        {"predicted", f.predicted},
+                        {"load_ms", f.load_ms},
+                        {"build_ms", f.build_ms},
+                        {"render_ms", f.render_ms},
+                        {"rays", f.rays}});
+  for (const dist::RankStats& r : result.ranks)
+    ranks.push_back({{"rank", r.rank},
+                     {"frames", r.units},
+                     {"compute_ms", r.compute_ms},
+                     {"comm_ms", r.comm_ms},
+                     {"assembly_ms", r.collect_ms},
+                     {"idle_ms", r.idle_ms}});
+  const Json summary = {{"frames", result.frames},
+                        {"rendered", frames.size()},
+                        {"kept", result.kept},
+                        {"dir", command.render_dir},
+                        {"width", command.width},
+                        {"height", command.height},
+                        {"ranks", result.ranks.size()},
+                        {"run_length", result.run_length},
+                        {"predictor", command.predictor},
+                        {"threads", effective_threads(command.accel.build.threads)},
+                        {"wall_ms", result.wall_ms},
+                        {"frames_per_s", per_s},
+                        {"frame_rows", rendered},
+                        {"rank_stats", ranks}};
+  cli::emit_json(command.json, summary);
+  if (command.json.print) return;
+  fmt::print("{:>5} {:>4} {:>9} {:>9} {:>9} {:>10}\n", "frame", "rank", "predicted", "load_ms",
+             "build_ms", "render_ms");
+  for (const RenderedFrame& f : frames)
+    fmt::print("{:5d} {:4d} {:>9} {:9.2f} {:9.2f} {:10.2f}\n", f.frame, f.rank,
+               f.predicted ? "yes" : "no", f.load_ms, f.build_ms, f.render_ms);
+  fmt::print("{:>4} {:>6} {:>11} {:>9} {:>12} {:>9}\n", "rank", "frames", "compute_ms", "comm_ms",
+             "assembly_ms", "idle_ms");
+  for (const dist::RankStats& r : result.ranks)
+    fmt::print("{:4d} {:6d} {:11.1f} {:9.1f} {:12.1f} {:9.1f}\n", r.rank, r.units, r.compute_ms,
+               r.comm_ms, r.collect_ms, r.idle_ms);
+  print_table({{"frames", std::to_string(result.frames)},
+               {"rendered", std::to_string(frames.size())},
+               {"kept (--resume: complete already)", std::to_string(result.kept.size())},
+               {"ranks", std::to_string(result.ranks.size())},
+               {"run_length", std::to_string(result.run_length)},
+               {"wall_ms", fmt::format("{:.1f}", result.wall_ms)},
+               {"frames_per_s", fmt::format("{:.3f}", per_s)}});
+}
+
 void run(AnimateCommand command) {
   const FrameSequence sequence(command.frames);
   command.config.kind = parse_predictor_kind(command.predictor);
+  if (command.render_only || command.resume || dist::launched())
+    return run_render(command, sequence);
   std::vector<std::vector<Triangle>> frames;
   {
     cli::ProgressBar bar("loading");
@@ -366,7 +409,7 @@ void run(AnimateCommand command) {
       r.trace_ms_predicted = f.trace_ms_refit;
       r.hit_mismatches = f.hit_mismatches;
     }
-    FrameRenderer renderer(sequence, frames[0], command.render_dir, command.accel.build);
+    FrameRenderer renderer(sequence, frames[0], image_options(command));
     for (std::size_t i = 0; i < frames.size(); ++i) renderer.render(i, frames[i]);
     const std::string builder =
         command.accel.build.builder.empty() ? "binned" : command.accel.build.builder;
@@ -384,7 +427,7 @@ void run(AnimateCommand command) {
   sah.builder = "sah";
   SplitPredictor predictor(command.config);
   std::vector<FrameRow> rows(frames.size());
-  FrameRenderer renderer(sequence, frames[0], command.render_dir, base);
+  FrameRenderer renderer(sequence, frames[0], image_options(command));
   cli::ProgressBar bar("animate");
   std::vector<Hit> hits_full, hits_predicted;
   for (std::size_t i = 0; i < frames.size(); ++i) {
@@ -582,6 +625,19 @@ void add_animate_command(CLI::App& app) {
   sub->add_option("--render", command->render_dir,
                   "Render every frame as a PNG into this folder (BART scenes: with their camera "
                   "path, lights and materials)");
+  sub->add_option("-W,--width", command->width, "Width of the --render frames in pixels")
+      ->check(CLI::Range(1, 16384));
+  sub->add_option("-H,--height", command->height, "Height of the --render frames in pixels")
+      ->check(CLI::Range(1, 16384));
+  sub->add_flag("--render-only", command->render_only,
+                "Only render the frames (predicted kd rebuilds, no comparison of builds): what "
+                "every run under mpirun does, with frames handed out to the ranks");
+  sub->add_flag("--resume", command->resume,
+                "With --render: render only the frames whose PNG is missing or incomplete "
+                "(each output decoded and checked); implies --render-only");
+  sub->add_option("--run-length", command->run_length,
+                  "Under mpirun: consecutive frames per hand-out, over which a rank keeps its "
+                  "predictor (0 = about a quarter of each rank's share, at most 16)");
   sub->callback([command] { run(*command); });
 }
 

@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <climits>
+#include <cstdint>
 #include <cstdlib>
 #include <string>
 
@@ -71,6 +72,18 @@ const World& world() {
 #endif
   s.initialised = true;
   return s.world;
+}
+
+bool launched() { return launcher_size() > 0; }
+
+void broadcast(std::string& bytes) {
+  if (!world().distributed()) return;
+#if SPLITRAY_HAS_MPI
+  std::uint64_t length = bytes.size();
+  MPI_Bcast(&length, sizeof length, MPI_BYTE, 0, MPI_COMM_WORLD);
+  bytes.resize(length);
+  MPI_Bcast(bytes.data(), static_cast<int>(length), MPI_BYTE, 0, MPI_COMM_WORLD);
+#endif
 }
 
 void all_or_none(const std::function<void()>& setup) {

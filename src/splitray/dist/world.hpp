@@ -21,6 +21,11 @@ bool mpi_built();
 // or PMIx's environment), finalised at exit. Throws Error("mpirun", ...) when started by
 // mpirun with more than one process in a build without MPI.
 const World& world();
+// Whether a launcher (mpirun) started this process, also as a job of one process.
+bool launched();
+
+// Rank 0's `bytes` on every rank (a no-op in one process).
+void broadcast(std::string& bytes);
 
 // Runs `setup` (load a scene, build its structure ...) on every rank and agrees on the
 // outcome: when it threw on any rank, every rank throws an Error naming the first failed rank

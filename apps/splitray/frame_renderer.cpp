@@ -1,0 +1,83 @@
+#include "frame_renderer.hpp"
+
+#include <fmt/core.h>
+
+#include <filesystem>
+
+#include "splitray/dist/world.hpp"
+#include "splitray/render/whitted.hpp"
+
+namespace splitray::app {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+// The triangles as the mesh's vertices, three per face (the frames' order).
+Mesh& soup(const std::vector<Triangle>& triangles, Mesh& mesh) {
+  mesh.positions.resize(triangles.size() * 3);
+  mesh.faces.resize(triangles.size());
+  for (std::size_t t = 0; t < triangles.size(); ++t) {
+    const auto base = static_cast<std::uint32_t>(3 * t);
+    for (int k = 0; k < 3; ++k) mesh.positions[base + k] = triangles[t].vertex(k);
+    mesh.faces[t] = {base, base + 1, base + 2};
+  }
+  return mesh;
+}
+
+}  // namespace
+
+FrameRenderer::FrameRenderer(const FrameSequence& sequence, const std::vector<Triangle>& first,
+                             FrameImageOptions options)
+    : sequence_(sequence), options_(std::move(options)) {
+  if (!enabled()) return;
+  options_.build.builder.clear();
+  if (auto aff = sequence.scene()) {
+    scene_ = std::move(*aff);
+  } else {
+    Mesh mesh;
+    mesh.name = "frame";
+    scene_ = scene_from_mesh(soup(first, mesh));
+  }
+  fixed_camera_ = scene_.camera ? *scene_.camera : Camera::frame(scene_.bounds());
+  if (dist::world().rank == 0) fs::create_directories(options_.dir);  // the one that writes
+  if (scene_.lights_fit_view) {  // fitted to the first frame, kept for the others
+    RenderOptions render;
+    render.width = options_.width;
+    render.height = options_.height;
+    render.build = options_.build;
+    const WhittedRenderer fit(scene(first), sequence_.camera(0).value_or(fixed_camera_), render);
+    scene_.lights = fit.lights();
+    scene_.lights_fit_view = false;
+  }
+}
+
+std::string FrameRenderer::path(std::size_t frame) const {
+  return (fs::path(options_.dir) / fmt::format("frame-{:04d}.png", frame)).string();
+}
+
+const Scene& FrameRenderer::scene(const std::vector<Triangle>& triangles) {
+  soup(triangles, scene_.meshes[0]);
+  return scene_;
+}
+
+Image FrameRenderer::image(std::size_t frame, std::unique_ptr<Accel> accel,
+                           std::uint64_t& rays) const {
+  RenderOptions render;
+  render.width = options_.width;
+  render.height = options_.height;
+  render.build = options_.build;
+  const WhittedRenderer renderer(scene_, sequence_.camera(frame).value_or(fixed_camera_), render,
+                                 std::move(accel));
+  return renderer.render(PixelRect{0, 0, options_.width, options_.height}, rays);
+}
+
+void FrameRenderer::render(std::size_t frame, const std::vector<Triangle>& triangles) {
+  if (!enabled()) return;
+  scene(triangles);
+  std::uint64_t rays = 0;
+  const Image picture = image(frame, nullptr, rays);
+  write_image(path(frame), picture);
+}
+
+}  // namespace splitray::app
