@@ -21,6 +21,9 @@ packages=(
   libopenmpi-dev openmpi-bin
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
+  # the Python module (pybind11 for Debian's python3) and its tests; the Python benchmark's
+  # peers (scipy's cKDTree, Open3D's RaycastingScene)
+  python3-dev pybind11-dev python3-pybind11 python3-pytest python3-scipy python3-open3d
 )
 
 missing=()

@@ -1,0 +1,79 @@
+#include "splitray/accel/mesh_scene.hpp"
+
+#include <cstring>
+#include <vector>
+
+#include "splitray/core/errors.hpp"
+#include "splitray/core/parallel.hpp"
+
+namespace splitray {
+
+const char* mesh_update_name(MeshUpdate update) {
+  switch (update) {
+    case MeshUpdate::refit:
+      return "refit";
+    case MeshUpdate::predicted_rebuild:
+      return "predicted_rebuild";
+    case MeshUpdate::rebuild:
+      return "rebuild";
+  }
+  return "?";
+}
+
+MeshScene::MeshScene(const MeshBuffers& mesh, const std::string& accel, const BuildConfig& config,
+                     const std::string& where)
+    : mesh_(mesh), accel_name_(accel), config_(config) {
+  accel_ = make_accel(accel, mesh, config, where);
+}
+
+void MeshScene::fill_normal(SurfaceHit& hit) const {
+  hit.ng = hit.found() ? mesh_.triangle(hit.prim).geometric_normal() : Vec3{0, 0, 0};
+}
+
+SurfaceHit MeshScene::intersect(const Ray& ray) const {
+  SurfaceHit hit;
+  static_cast<Hit&>(hit) = accel_->intersect(ray);
+  fill_normal(hit);
+  return hit;
+}
+
+void MeshScene::intersect(std::span<const Ray> rays, std::span<SurfaceHit> hits) const {
+  if (hits.size() != rays.size()) throw Error("MeshScene::intersect", "one hit per ray expected");
+  std::vector<Hit> found(rays.size());
+  accel_->intersect(rays, found);
+  parallel_chunks(rays.size(), 4096, [&](std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; ++i) {
+      static_cast<Hit&>(hits[i]) = found[i];
+      fill_normal(hits[i]);
+    }
+  });
+}
+
+MeshUpdate MeshScene::update(const MeshBuffers& moved, const std::string& where) {
+  if (moved.vertex_count != mesh_.vertex_count || moved.triangle_count != mesh_.triangle_count)
+    throw Error(where, "an update keeps the mesh's " + std::to_string(mesh_.vertex_count) +
+                           " vertices and " + std::to_string(mesh_.triangle_count) +
+                           " triangles, got " + std::to_string(moved.vertex_count) + " and " +
+                           std::to_string(moved.triangle_count));
+  moved.validate(where);
+  for (std::size_t j = 0; j < moved.triangle_count; ++j)
+    if (std::memcmp(moved.triangle_indices(j), mesh_.triangle_indices(j),
+                    3 * sizeof(std::uint32_t)) != 0)
+      throw Error(where, "triangle " + std::to_string(j) +
+                             " has other vertices than when built (an update moves vertices only)");
+  const std::vector<Triangle> tris = moved.triangles();
+  MeshUpdate how = MeshUpdate::rebuild;
+  if (accel_->refit(tris)) {
+    how = MeshUpdate::refit;
+  } else if (accel_name_ == "kd") {
+    PredictedBuildStats stats;
+    accel_ = make_kd_predicted(tris, config_, predictor_, stats);
+    how = MeshUpdate::predicted_rebuild;
+  } else {
+    accel_ = make_accel(accel_name_, tris, config_);
+  }
+  mesh_ = moved;
+  return how;
+}
+
+}  // namespace splitray

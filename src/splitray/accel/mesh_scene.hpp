@@ -1,0 +1,67 @@
+#pragma once
+// A structure over a mesh in the caller's buffers, as an application uses one (Embree's
+// RTCScene, Open3D's RaycastingScene): closest hits with the geometric normal, occlusion,
+// and updates of the vertex positions for animated meshes. The Python module's Scene is
+// this class.
+//
+// Memory: the structure keeps its own copy of the triangles in its own layout; the scene also
+// keeps the MeshBuffers it was given (pointers, not copies), from which hits take their
+// normals. Those buffers must stay alive and unchanged until update() moves the scene to
+// other buffers or the scene is destroyed (Embree's rule for shared buffers).
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+
+#include "splitray/accel/accel.hpp"
+#include "splitray/accel/kd/predicted_builder.hpp"
+#include "splitray/accel/mesh_buffers.hpp"
+#include "splitray/accel/predict/split_predictor.hpp"
+
+namespace splitray {
+
+// A closest hit with the geometric normal ng = (v1 - v0) x (v2 - v0) of the triangle hit, not
+// normalised (as Embree's Ng), from the caller's vertices; zero on a miss.
+struct SurfaceHit : Hit {
+  Vec3 ng;
+};
+
+enum class MeshUpdate { refit, predicted_rebuild, rebuild };
+const char* mesh_update_name(MeshUpdate update);  // "refit", "predicted_rebuild", "rebuild"
+
+class MeshScene {
+ public:
+  // Validates the buffers (Error naming `where`) and builds structure `accel` over them.
+  MeshScene(const MeshBuffers& mesh, const std::string& accel = "bvh",
+            const BuildConfig& config = {}, const std::string& where = "mesh buffers");
+
+  SurfaceHit intersect(const Ray& ray) const;
+  bool occluded(const Ray& ray) const { return accel_->occluded(ray); }
+  // Batched over all cores (of the calling task arena); identical to the single-ray calls.
+  void intersect(std::span<const Ray> rays, std::span<SurfaceHit> hits) const;
+  void occluded(std::span<const Ray> rays, std::span<std::uint8_t> occluded) const {
+    accel_->occluded(rays, occluded);
+  }
+
+  // Moves the scene to new positions of the same vertices (same vertex and triangle counts and
+  // indices; `moved` replaces the buffers kept). How: a refit where the structure refits (bvh,
+  // embree with builder "refit"); for kd a rebuild steered by the Kalman-filtered splits of
+  // the previous frames (paper 000, builder golden+kalman); else a full rebuild.
+  MeshUpdate update(const MeshBuffers& moved, const std::string& where = "mesh buffers");
+
+  const Accel& accel() const { return *accel_; }
+  const AccelStats& stats() const { return accel_->stats(); }
+  const MeshBuffers& mesh() const { return mesh_; }
+  const std::string& accel_name() const { return accel_name_; }
+
+ private:
+  void fill_normal(SurfaceHit& hit) const;
+
+  MeshBuffers mesh_;
+  std::string accel_name_;
+  BuildConfig config_;
+  std::unique_ptr<Accel> accel_;
+  SplitPredictor predictor_;  // kd only: the split history of the frames so far
+};
+
+}  // namespace splitray
