@@ -57,7 +57,7 @@ TEST(MeshScene, StridedBuffersGiveTheHitsOfTheSoupWithNormals) {
   const std::vector<Ray> rays = rays_around(mesh.bounds(), 4000, 3);
   const auto brute = make_accel("brute", soup);
   std::size_t hits = 0;
-  for (const std::string& accel : {"bvh", "kd", "bih", "brute"}) {
+  for (const char* accel : {"bvh", "kd", "bih", "brute"}) {
     const MeshScene scene(data.buffers(), accel);
     std::vector<SurfaceHit> found(rays.size());
     scene.intersect(rays, found);
