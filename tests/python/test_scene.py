@@ -104,15 +104,20 @@ def test_vertices_used_in_place(horse, reference):
 
 def test_non_finite_and_zero_rays_miss(horse, reference):
     rays, brute = reference
-    bad = rays[:8].copy()
-    bad[0, 0], bad[1, 3], bad[2, 4], bad[3, 3:] = np.nan, np.inf, -np.inf, 0
+    bad = rays.copy()  # every third ray broken, in batches large enough for packet paths
+    broken = np.arange(len(rays)) % 3 == 0
+    kinds = np.arange(len(rays)) % 4
+    bad[broken & (kinds == 0), 0] = np.nan
+    bad[broken & (kinds == 1), 3] = np.inf
+    bad[broken & (kinds == 2), 4] = -np.inf
+    bad[broken & (kinds == 3), 3:] = 0
     for accel in splitray.accel_names():
         scene = splitray.Scene(*horse, accel=accel)
         hits = scene.cast_rays(bad)
-        assert np.all(hits["primitive_ids"][:4] == MISS) and np.all(np.isinf(hits["t_hit"][:4]))
-        assert not scene.test_occlusions(bad)[:4].any()
-        if accel != "embree":
-            np.testing.assert_array_equal(hits["t_hit"][4:], brute["t_hit"][4:8])
+        assert np.all(hits["primitive_ids"][broken] == MISS) and np.all(np.isinf(hits["t_hit"][broken]))
+        assert not scene.test_occlusions(bad)[broken].any()
+        same = hits["primitive_ids"][~broken] == brute["primitive_ids"][~broken]
+        assert same.all() if accel != "embree" else same.mean() > 0.999, accel
 
 
 def test_occlusions(horse, reference):
