@@ -1,7 +1,8 @@
 # ctest's package_test: installs the build tree into a fresh prefix, builds
-# tests/package_consumer against it with find_package(splitray 0.1), runs the program on the
+# examples/cpp against it with find_package(splitray 0.1), runs the program on the
 # vendored horse, and checks that a version the package is not compatible with is refused.
-# Arguments: -DBUILD_DIR=... -DSOURCE_DIR=... -DWORK_DIR=... -DMESH=...
+# and runs examples/python with the installed Python module (when PYTHON is given).
+# Arguments: -DBUILD_DIR=... -DSOURCE_DIR=... -DWORK_DIR=... -DMESH=... [-DPYTHON=... -DPYTHON_DIR=...]
 file(REMOVE_RECURSE ${WORK_DIR})
 function(run)
   execute_process(COMMAND ${ARGN} RESULT_VARIABLE code OUTPUT_VARIABLE out ERROR_VARIABLE err)
@@ -10,10 +11,14 @@ function(run)
   endif()
 endfunction()
 run(${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${WORK_DIR}/prefix)
-run(${CMAKE_COMMAND} -S ${SOURCE_DIR}/tests/package_consumer -B ${WORK_DIR}/build
+run(${CMAKE_COMMAND} -S ${SOURCE_DIR}/examples/cpp -B ${WORK_DIR}/build
     -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH=${WORK_DIR}/prefix)
 run(${CMAKE_COMMAND} --build ${WORK_DIR}/build)
 run(${WORK_DIR}/build/consumer ${MESH})
+if(PYTHON)
+  run(${CMAKE_COMMAND} -E env PYTHONPATH=${WORK_DIR}/prefix/${PYTHON_DIR}
+      ${PYTHON} ${SOURCE_DIR}/examples/python/cast_rays.py ${MESH})
+endif()
 # find_package(splitray 1.0) must fail: the version file says 0.1.x.
 file(WRITE ${WORK_DIR}/v1/CMakeLists.txt
   "cmake_minimum_required(VERSION 3.25)\nproject(v1 CXX)\nfind_package(splitray 1.0 REQUIRED)\n")
