@@ -2,16 +2,14 @@
 // full render; `mpirun -np 2|3 splitray render` (loopback, --oversubscribe) writes the same
 // PNG as one process. The MPI tests skip with a message where MPI was not built in.
 #include <gtest/gtest.h>
-#include <stb/stb_image.h>
 #include <sys/wait.h>
 
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "test_data.hpp"
 
@@ -55,20 +53,8 @@ Outcome mpirun(int ranks, const std::string& args, const fs::path& dir) {
 #define REQUIRE_MPI() \
   if (std::string(SPLITRAY_MPIEXEC).empty()) GTEST_SKIP() << "built without MPI (mpirun): skipped"
 
-struct Png {
-  int width = 0, height = 0;
-  std::vector<unsigned char> rgb;
-};
-
-Png decode(const fs::path& path) {
-  Png png;
-  int channels = 0;
-  unsigned char* data = stbi_load(path.string().c_str(), &png.width, &png.height, &channels, 3);
-  if (!data) return png;
-  png.rgb.assign(data, data + static_cast<std::size_t>(png.width) * png.height * 3);
-  stbi_image_free(data);
-  return png;
-}
+using splitray::test::Png;
+using splitray::test::read_png;
 
 fs::path fresh_dir() {
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
@@ -84,7 +70,7 @@ const std::string kScene =
 TEST(Crop, WindowsTileTheImageExactly) {
   const fs::path dir = fresh_dir();
   ASSERT_EQ(run_splitray(kScene + " -o " + quote((dir / "full.png").string()), dir).status, 0);
-  const Png full = decode(dir / "full.png");
+  const Png full = read_png(dir / "full.png");
   ASSERT_EQ(full.width, 203);
   // Uneven cuts: pixel edges at ceil(W x) meet without gap or overlap.
   const std::vector<double> xs = {0, 0.37, 0.5, 1}, ys = {0, 0.61, 1};
@@ -98,7 +84,7 @@ TEST(Crop, WindowsTileTheImageExactly) {
       const Outcome run =
           run_splitray(kScene + " --crop " + crop + " -o " + quote(part.string()), dir);
       ASSERT_EQ(run.status, 0) << run.err;
-      const Png png = decode(part);
+      const Png png = read_png(part);
       const int x0 = static_cast<int>(std::ceil(xs[i] * full.width));
       const int y0 = static_cast<int>(std::ceil(ys[j] * full.height));
       ASSERT_EQ(png.width, static_cast<int>(std::ceil(xs[i + 1] * full.width)) - x0);

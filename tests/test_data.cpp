@@ -1,5 +1,7 @@
 #include "test_data.hpp"
 
+#include <stb/stb_image.h>
+
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
@@ -43,6 +45,16 @@ std::string quote(const std::string& text) {
   std::string quoted = "'";
   for (const char c : text) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
   return quoted + "'";
+}
+
+Png read_png(const std::filesystem::path& path) {
+  Png png;
+  int channels = 0;
+  unsigned char* data = stbi_load(path.string().c_str(), &png.width, &png.height, &channels, 3);
+  if (!data) return png;
+  png.rgb.assign(data, data + static_cast<std::size_t>(png.width) * png.height * 3);
+  stbi_image_free(data);
+  return png;
 }
 
 }  // namespace splitray::test

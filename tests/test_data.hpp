@@ -5,6 +5,7 @@
 
 #include <filesystem>
 #include <string>
+#include <vector>
 
 namespace splitray::test {
 
@@ -20,6 +21,13 @@ std::filesystem::path temp_dir(const std::string& name);
 std::string read_text(const std::filesystem::path& path);
 // TEXT in single quotes for /bin/sh.
 std::string quote(const std::string& text);
+
+// A PNG decoded to 8-bit RGB rows (width and height 0 when it cannot be read).
+struct Png {
+  int width = 0, height = 0;
+  std::vector<unsigned char> rgb;
+};
+Png read_png(const std::filesystem::path& path);
 
 }  // namespace splitray::test
 

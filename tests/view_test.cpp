@@ -3,7 +3,6 @@
 // scene, size and camera, and exits cleanly; without a display it fails with a clear message.
 // Skipped with a message when xvfb-run or the built splitray is absent.
 #include <gtest/gtest.h>
-#include <stb/stb_image.h>
 #include <sys/wait.h>
 
 #include <cmath>
@@ -78,20 +77,8 @@ fs::path write_scene(const fs::path& dir) {
   return dir / "scene.json";
 }
 
-struct Png {
-  int width = 0, height = 0;
-  std::vector<unsigned char> rgb;
-};
-
-Png read_png(const fs::path& path) {
-  Png png;
-  int channels = 0;
-  unsigned char* data = stbi_load(path.string().c_str(), &png.width, &png.height, &channels, 3);
-  if (!data) return png;
-  png.rgb.assign(data, data + static_cast<std::size_t>(png.width) * png.height * 3);
-  stbi_image_free(data);
-  return png;
-}
+using splitray::test::Png;
+using splitray::test::read_png;
 
 double psnr(const Png& a, const Png& b) {
   double sum = 0;
@@ -202,10 +189,10 @@ TEST_F(ViewTest, BartSceneWithItsCameraAndItsAnimation) {
   ASSERT_EQ(view.status, 0) << view.output;
   ASSERT_EQ(render.status, 0) << render.output;
   EXPECT_GE(psnr(read_png(shot), read_png(headless)), 40.0);
-  const Result frames = run("xvfb-run -a " + quote(kBinary) + " view --frames " + quote(aff) +
-                                " -W 96 -H 72 --exit-after 3 --json --screenshot " +
-                                quote(shot.string()),
-                            dir_);
+  const Result frames =
+      run("xvfb-run -a " + quote(kBinary) + " view --frames " + quote(aff) +
+              " -W 96 -H 72 --exit-after 3 --json --screenshot " + quote(shot.string()),
+          dir_);
   ASSERT_EQ(frames.status, 0) << frames.output;
   EXPECT_EQ(read_png(shot).width, 96);
   EXPECT_NE(frames.output.find("\"frames_shown\": 3"), std::string::npos) << frames.output;
