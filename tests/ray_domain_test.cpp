@@ -137,7 +137,7 @@ TEST(RayDomain, MeshesBeyondTheCoordinateLimitAreRefused) {
   }
   std::vector<Triangle> moved = horse();
   moved[5].v1.y = kNaN;
-  for (const std::string& name : {"bvh", "kd"}) {
+  for (const char* name : {"bvh", "kd"}) {
     auto accel = make_accel(name, horse());
     EXPECT_THROW(accel->refit(moved), Error) << name;
   }

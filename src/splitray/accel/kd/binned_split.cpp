@@ -7,7 +7,7 @@
 #include <limits>
 #include <vector>
 
-#include "splitray/accel/kd/golden_search.hpp"  // KdAxisCost
+#include "splitray/accel/kd/golden_search.hpp"
 #include "splitray/accel/triangle_clip.hpp"
 
 namespace splitray {

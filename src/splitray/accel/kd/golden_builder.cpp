@@ -39,6 +39,7 @@
 #include "splitray/accel/kd/golden_small.hpp"
 #include "splitray/accel/kd/kd_emit.hpp"
 #include "splitray/accel/kd/kd_sah.hpp"
+#include "splitray/accel/kd/predicted_builder.hpp"
 
 namespace splitray {
 
@@ -253,15 +254,13 @@ class GoldenBuilder {
     bool decided = false;
     if (prediction && cell.lo[prediction->axis] < cell.hi[prediction->axis]) {
       const int a = prediction->axis;
-      const double lo = cell.lo[a], extent = static_cast<double>(cell.hi[a]) - lo;
-      const double center = lo + prediction->fraction * extent;
-      const double half = prediction->half_width * extent;
-      const GoldenSearchResult r =
-          search_bracket(prims, cell, a, cost_, static_cast<float>(center - half),
-                         static_cast<float>(center + half), static_cast<float>(center), scratch);
+      const PredictedSearch p = search_predicted(
+          *prediction, cell, cost_.leaf(n), [&](int axis, float lo, float hi, float start) {
+            return search_bracket(prims, cell, axis, cost_, lo, hi, start, scratch);
+          });
+      const GoldenSearchResult& r = p.result;
       evals += r.evals;
-      if (r.best.valid() && !r.at_bracket_edge &&
-          r.best.cost <= prediction->max_cost_ratio * cost_.leaf(n)) {
+      if (p.accepted) {
         record.used_prediction = true;
         if (!prediction->check_axes) {
           split.axis = a;
@@ -338,16 +337,13 @@ class GoldenBuilder {
     bool done = false;
     if (prediction && cell.lo[prediction->axis] < cell.hi[prediction->axis]) {
       const int a = prediction->axis;
-      const double lo = cell.lo[a], extent = static_cast<double>(cell.hi[a]) - lo;
-      const double center = lo + prediction->fraction * extent;
-      const double half = prediction->half_width * extent;
-      GoldenSearchResult r = golden_search_axis(
-          prims.axis_events(a), cell, a, cost_, static_cast<float>(center - half),
-          static_cast<float>(center + half), static_cast<float>(center));
-      evals += r.evals;
-      if (r.best.valid() && !r.at_bracket_edge &&
-          r.best.cost <= prediction->max_cost_ratio * cost_.leaf(n)) {
-        axes[a] = r;
+      const PredictedSearch p = search_predicted(
+          *prediction, cell, cost_.leaf(n), [&](int axis, float lo, float hi, float start) {
+            return golden_search_axis(prims.axis_events(axis), cell, axis, cost_, lo, hi, start);
+          });
+      evals += p.result.evals;
+      if (p.accepted) {
+        axes[a] = p.result;
         searched[a] = true;
         record.used_prediction = true;
         done = !prediction->check_axes;

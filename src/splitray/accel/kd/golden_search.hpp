@@ -20,44 +20,6 @@
 
 namespace splitray {
 
-// KdSplitCost::split for one cell and axis with the per-cell terms computed once: the same
-// operations in the same order, so bit for bit the same cost (sweeps evaluate it a lot).
-class KdAxisCost {
- public:
-  KdAxisCost(const KdSplitCost& cost, const Aabb& box, int axis) : cost_(cost) {
-    const Vec3 e = box.extent();
-    const int a1 = axis == 2 ? 0 : axis + 1, a2 = a1 == 2 ? 0 : a1 + 1;
-    inv_area_ = 1.0 / box.half_area();
-    cap_ = static_cast<double>(e[a1]) * e[a2];
-    ring_ = static_cast<double>(e[a1]) + e[a2];
-    lo_ = box.lo[axis];
-    hi_ = box.hi[axis];
-  }
-
-  double operator()(float position, std::size_t n_below, std::size_t n_above) const {
-    return (*this)(position, static_cast<double>(n_below), static_cast<double>(n_above));
-  }
-  double operator()(float position, double n_below, double n_above) const {
-    return (*this)(extent_below(position), extent_above(position), n_below, n_above);
-  }
-  // The same from the two cells' extents along the axis and the counts as doubles (exact
-  // for any count): the form a loop over many positions vectorises.
-  double extent_below(float position) const { return position - lo_; }
-  double extent_above(float position) const { return hi_ - position; }
-  double operator()(double below, double above, double n_below, double n_above) const {
-    const double p_below = (cap_ + below * ring_) * inv_area_;
-    const double p_above = (cap_ + above * ring_) * inv_area_;
-    const double lambda = (n_below == 0 || n_above == 0) ? cost_.empty_factor : 1.0;
-    return lambda *
-           (cost_.traversal + cost_.intersection * (p_below * n_below + p_above * n_above));
-  }
-
- private:
-  const KdSplitCost& cost_;
-  double inv_area_, cap_, ring_;
-  float lo_, hi_;
-};
-
 // The sorted events of a node's primitives on one axis (clipped bounds, ascending).
 struct AxisEvents {
   std::span<const float> starts;  // lo of the primitives with lo < hi on this axis

@@ -30,48 +30,51 @@ struct KdSplitCost {
 
   // Cost of cutting `box` at `position` on `axis` with n_below / n_above primitives.
   double split(const Aabb& box, int axis, float position, std::size_t n_below,
-               std::size_t n_above) const {
+               std::size_t n_above) const;
+};
+
+// The one SAH expression of a kd split, for one cell and axis with the per-cell terms
+// computed once (every kd builder, the golden search and the sweeps call it).
+class KdAxisCost {
+ public:
+  KdAxisCost(const KdSplitCost& cost, const Aabb& box, int axis) : cost_(cost) {
     const Vec3 e = box.extent();
     const int a1 = axis == 2 ? 0 : axis + 1, a2 = a1 == 2 ? 0 : a1 + 1;
-    const double inv_area = 1.0 / box.half_area();
-    const double cap = static_cast<double>(e[a1]) * e[a2];   // the face cut by the plane
-    const double ring = static_cast<double>(e[a1]) + e[a2];  // perimeter of that face / 2
-    const double below = position - box.lo[axis], above = box.hi[axis] - position;
-    const double p_below = (cap + below * ring) * inv_area;
-    const double p_above = (cap + above * ring) * inv_area;
-    const double lambda = (n_below == 0 || n_above == 0) ? empty_factor : 1.0;
-    return lambda * (traversal + intersection * (p_below * static_cast<double>(n_below) +
-                                                 p_above * static_cast<double>(n_above)));
+    inv_area_ = 1.0 / box.half_area();
+    cap_ = static_cast<double>(e[a1]) * e[a2];   // the face cut by the plane
+    ring_ = static_cast<double>(e[a1]) + e[a2];  // perimeter of that face / 2
+    lo_ = box.lo[axis];
+    hi_ = box.hi[axis];
   }
 
-  // split() for many positions on one box and axis, with the per-box terms computed once;
-  // gives bit-identical costs.
-  class Axis {
-   public:
-    Axis(const KdSplitCost& cost, const Aabb& box, int axis)
-        : cost_(cost), lo_(box.lo[axis]), hi_(box.hi[axis]) {
-      const Vec3 e = box.extent();
-      const int a1 = axis == 2 ? 0 : axis + 1, a2 = a1 == 2 ? 0 : a1 + 1;
-      inv_area_ = 1.0 / box.half_area();
-      cap_ = static_cast<double>(e[a1]) * e[a2];
-      ring_ = static_cast<double>(e[a1]) + e[a2];
-    }
-    double operator()(float position, std::size_t n_below, std::size_t n_above) const {
-      const double below = position - lo_, above = hi_ - position;
-      const double p_below = (cap_ + below * ring_) * inv_area_;
-      const double p_above = (cap_ + above * ring_) * inv_area_;
-      const double lambda = (n_below == 0 || n_above == 0) ? cost_.empty_factor : 1.0;
-      return lambda *
-             (cost_.traversal + cost_.intersection * (p_below * static_cast<double>(n_below) +
-                                                      p_above * static_cast<double>(n_above)));
-    }
+  double operator()(float position, std::size_t n_below, std::size_t n_above) const {
+    return (*this)(position, static_cast<double>(n_below), static_cast<double>(n_above));
+  }
+  double operator()(float position, double n_below, double n_above) const {
+    return (*this)(extent_below(position), extent_above(position), n_below, n_above);
+  }
+  // The same from the two cells' extents along the axis and the counts as doubles (exact
+  // for any count): the form a loop over many positions vectorises.
+  double extent_below(float position) const { return position - lo_; }
+  double extent_above(float position) const { return hi_ - position; }
+  double operator()(double below, double above, double n_below, double n_above) const {
+    const double p_below = (cap_ + below * ring_) * inv_area_;
+    const double p_above = (cap_ + above * ring_) * inv_area_;
+    const double lambda = (n_below == 0 || n_above == 0) ? cost_.empty_factor : 1.0;
+    return lambda *
+           (cost_.traversal + cost_.intersection * (p_below * n_below + p_above * n_above));
+  }
 
-   private:
-    const KdSplitCost& cost_;
-    float lo_, hi_;
-    double inv_area_, cap_, ring_;
-  };
+ private:
+  const KdSplitCost& cost_;
+  double inv_area_, cap_, ring_;
+  float lo_, hi_;
 };
+
+inline double KdSplitCost::split(const Aabb& box, int axis, float position, std::size_t n_below,
+                                 std::size_t n_above) const {
+  return KdAxisCost(*this, box, axis)(position, n_below, n_above);
+}
 
 // Deepest tree the traversal's fixed stack takes; kd_max_depth never exceeds it.
 inline constexpr int kKdDepthLimit = 64;

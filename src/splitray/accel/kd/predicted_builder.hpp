@@ -13,11 +13,38 @@
 #include <span>
 #include <vector>
 
+#include "splitray/accel/kd/golden_search.hpp"
 #include "splitray/accel/kd/kd_accel.hpp"
 #include "splitray/accel/kd/kd_build.hpp"
 #include "splitray/accel/predict/split_predictor.hpp"
 
 namespace splitray {
+
+// Paper 000's Algorithm 1 at one node, the one home of it (golden's event lists and the
+// PrimRef nodes of predicted rebuilds both call it): the predicted axis is searched in the
+// bracket the prediction's uncertainty spans, starting at the predicted position, by
+// `search(axis, lo, hi, start)`, the builder's bracketed golden search. Its best split is
+// accepted when it lies inside the bracket and costs at most max_cost_ratio times the leaf;
+// otherwise the node falls back to the full search (and, when accepted, the other axes are
+// searched as well if prediction.check_axes). For a prediction whose axis has extent > 0.
+struct PredictedSearch {
+  GoldenSearchResult result;
+  bool accepted = false;
+};
+template <class BracketSearch>
+PredictedSearch search_predicted(const SplitPrediction& prediction, const Aabb& cell,
+                                 double leaf_cost, BracketSearch&& search) {
+  const int a = prediction.axis;
+  const double lo = cell.lo[a], extent = static_cast<double>(cell.hi[a]) - lo;
+  const double center = lo + prediction.fraction * extent;
+  const double half = prediction.half_width * extent;
+  PredictedSearch out;
+  out.result = search(a, static_cast<float>(center - half), static_cast<float>(center + half),
+                      static_cast<float>(center));
+  out.accepted = out.result.best.valid() && !out.result.at_bracket_edge &&
+                 out.result.best.cost <= prediction.max_cost_ratio * leaf_cost;
+  return out;
+}
 
 struct PredictedBuildStats {
   std::uint64_t cost_evals = 0;

@@ -189,7 +189,7 @@ class SahBuilder {
   // The sweep over one axis: for every distinct event position, the counts below/in/above the
   // plane are known from the events before it; planar triangles are tried on both sides.
   Split sweep_axis(const Node& node, int axis, std::uint64_t& evals) const {
-    const KdSplitCost::Axis cost(sah_, node.box, axis);
+    const KdAxisCost cost(sah_, node.box, axis);
     const float lo = node.box.lo[axis], hi = node.box.hi[axis];
     const std::span<const Event> events = node.axis(axis);
     const Event* e = events.data();
