@@ -132,7 +132,7 @@ Json measure(const Structure& s, std::span<const Triangle> triangles, std::vecto
     t["batched"] = throughput(set.rays.size(), runs, [&] { accel->intersect(set.rays, hits); });
     // Accel's own loop of single-ray calls (for Embree: rtcIntersect1 on every core).
     t["single"] =
-        throughput(set.rays.size(), runs, [&] { accel->Accel::intersect(set.rays, single_hits); });
+        throughput(set.rays.size(), runs, [&] { accel->intersect_each(set.rays, single_hits); });
     const Checksum c = checksum(hits);
     t["hits"] = c.hits;
     t["id_checksum"] = c.id_checksum;

@@ -139,6 +139,10 @@ TEST_F(Cli, UsageErrorsExitNonZeroWithAMessage) {
   expect_failure("trace " + quote(horse()) + " --kind sideways", "sideways");
   expect_failure("trace " + quote(horse()) + " --camera 1,2,3", "camera");
   expect_failure("trace " + quote(horse()) + " --camera 0,0,5,0,0,0,abc", "abc");
+  // Issue #23: an eye 1.85e19 from the target overflowed the camera's rays.
+  expect_failure("render " + quote(horse()) + " --camera 1.85e19,0,0,0,0,0 -W 8 -H 8 -o " +
+                     quote((dir_ / "far.png").string()),
+                 "beyond the limit");
   expect_failure("build " + quote(horse()) + " --accel nope", "nope");
   expect_failure("render --width 0", "width");
   // A builder that the structure does not have is a splitray::Error: exit code 1.
@@ -193,8 +197,15 @@ TEST_F(Cli, HostileFilesFailCleanlyAndLeaveNoOutput) {
        "property list uchar int vertex_indices\nend_header\n\x01\x02\x03"},
       {"scene_with_missing_mesh.json", R"({"meshes": [{"file": "nowhere.obj"}]})"},
       {"broken_scene.json", "{\"meshes\": [ "},
+      // Issue #23: coordinates near +-3e38 crashed the BVH's traversal; a transform that moves
+      // valid vertices past the limit.
+      {"huge_coordinates.obj",
+       "v -3e38 -3e38 0\nv 3e38 -3e38 0\nv 0 3e38 1e38\nv 1 2 3\nf 1 2 3\nf 1 2 4\n"},
+      {"overflowing_transform.json",
+       R"({"instances": [{"mesh": "tri.obj", "transform": [{"scale": 1e30}]}]})"},
   };
-  std::vector<std::string> keep;
+  std::vector<std::string> keep = {"tri.obj"};
+  std::ofstream(dir_ / "tri.obj") << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
   for (const auto& [name, content] : files) {
     std::ofstream(dir_ / name, std::ios::binary) << content;
     keep.push_back(name);
@@ -203,6 +214,7 @@ TEST_F(Cli, HostileFilesFailCleanlyAndLeaveNoOutput) {
     const std::string path = (dir_ / name).string();
     const std::vector<std::string> commands = {
         "build " + quote(path) + " --accel brute",
+        "trace " + quote(path) + " --accel bvh --rays 64",
         "render " + quote(path) + " -W 16 -H 16 -o " + quote((dir_ / "out.png").string())};
     for (const std::string& command : commands) {
       const Result result = run(command);

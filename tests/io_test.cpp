@@ -10,11 +10,13 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 
 #include "splitray/core/errors.hpp"
+#include "splitray/io/frames.hpp"
 #include "splitray/io/mesh_io.hpp"
 #include "splitray/io/read_file.hpp"
 #include "splitray/io/triangulate.hpp"
@@ -540,6 +542,29 @@ TEST_F(Io, Md2IndexOutOfRange) {  // assimp clamps this one too
   const std::uint16_t bad = 40;
   std::memcpy(bytes.data() + triangles_at + 2, &bad, 2);
   expect_mesh_error(file("oob.md2", bytes), "out of range");
+}
+// Issue #23: MD2 keyframes are scaled by per-frame factors: a NaN or huge factor used to reach
+// the structures (animate --refit crashed); every frame gets a loaded mesh's checks.
+TEST_F(Io, Md2FrameWithNaNOrHugeScaleIsRefused) {
+  for (const float scale : {std::numeric_limits<float>::quiet_NaN(), 1e35f}) {
+    std::string bytes = read_text(fixture("quad.md2"));
+    std::int32_t frames_at;
+    std::memcpy(&frames_at, bytes.data() + 56, 4);
+    std::memcpy(bytes.data() + frames_at, &scale, 4);  // the first frame's x scale
+    const std::string path = file("scaled.md2", bytes);
+    try {
+      const FrameSequence frames({path});
+      frames.load(0);
+      ADD_FAILURE() << "an MD2 frame scaled by " << scale << " was accepted";
+    } catch (const Error& e) {
+      const std::string message = e.what();
+      EXPECT_NE(message.find("scaled.md2"), std::string::npos) << message;
+      EXPECT_TRUE(message.find("NaN") != std::string::npos ||
+                  message.find("beyond the limit") != std::string::npos)
+          << message;
+    }
+    EXPECT_THROW(load_mesh(path), Error);
+  }
 }
 TEST_F(Io, GltfIndexOutOfRange) {  // assimp drops the triangle with a log message
   std::string bin = read_text(fixture("quads_external.bin"));

@@ -13,6 +13,7 @@
 #include "json_output.hpp"
 #include "options.hpp"
 #include "splitray/core/errors.hpp"
+#include "splitray/core/memory_budget.hpp"
 #include "splitray/core/parallel.hpp"
 #include "splitray/core/timer.hpp"
 #include "splitray/io/npy.hpp"
@@ -77,6 +78,11 @@ void run(const KnnCommand& command) {
     check_output_path(command.out, ".npz");
   }
   const ThreadLimit limit(command.threads);
+  check_memory(command.samples, sizeof(Vec3) * 4, std::to_string(command.samples) + " samples",
+               "--samples");
+  if (command.queries_in.empty())
+    check_memory(command.queries, sizeof(Vec3) * 2, std::to_string(command.queries) + " queries",
+                 "--queries");
   const Timer load_timer;
   PointInput input;
   if (is_npy(command.input)) {
@@ -93,7 +99,11 @@ void run(const KnnCommand& command) {
   const int k = command.out.empty()
                     ? command.k
                     : static_cast<int>(std::min<std::size_t>(command.k, input.points.size()));
-  if (!command.radius) check_k(k, input.points.size(), "--k");
+  if (!command.radius) {
+    check_k(k, input.points.size(), "--k");
+    check_memory(queries.size() * static_cast<std::size_t>(k), command.out.empty() ? 8 : 24,
+                 "the k nearest of every query", "--k");
+  }
 
   NeighborIndexConfig config = command.index;
   // A radius search builds the VVH for that radius (paper 003 §6.3), unless told otherwise.

@@ -13,6 +13,7 @@
 #include "json_output.hpp"
 #include "options.hpp"
 #include "splitray/core/errors.hpp"
+#include "splitray/core/memory_budget.hpp"
 #include "splitray/core/parallel.hpp"
 #include "splitray/core/timer.hpp"
 #include "splitray/io/npy.hpp"
@@ -101,6 +102,9 @@ void run(const TraceCommand& command) {
   if (!command.camera.empty())
     camera = to_camera(parse_camera(command.camera), Camera{}.vfov_degrees);
   const RayKind kind = parse_ray_kind(command.kind);
+  if (command.rays_in.empty())
+    check_memory(command.rays, sizeof(Ray) + sizeof(Hit), std::to_string(command.rays) + " rays",
+                 "--rays");
   const Timer ray_timer;
   const std::vector<Ray> rays =
       !command.rays_in.empty()
@@ -118,7 +122,7 @@ void run(const TraceCommand& command) {
       const Timer timer;
       const CpuTimer cpu;
       if (command.single)
-        accel->Accel::occluded(rays, occluded);
+        accel->occluded_each(rays, occluded);
       else
         accel->occluded(rays, occluded);
       times.push_back(timer.ms());
@@ -131,7 +135,7 @@ void run(const TraceCommand& command) {
       const Timer timer;
       const CpuTimer cpu;
       if (command.single)
-        accel->Accel::intersect(rays, hits);
+        accel->intersect_each(rays, hits);
       else
         accel->intersect(rays, hits);
       times.push_back(timer.ms());

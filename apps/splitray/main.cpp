@@ -9,6 +9,7 @@
 #include "commands.hpp"
 #include "file_options.hpp"
 #include "splitray/core/errors.hpp"
+#include "splitray/core/memory_budget.hpp"
 #include "splitray/dist/world.hpp"
 
 namespace {
@@ -21,6 +22,24 @@ int fail(const std::exception& error, const char* message) {
   std::fflush(stderr);
   splitray::dist::end_after_error(error);
   return 1;
+}
+
+// --max-memory on every command (and every command of a command): the budget of
+// splitray/core/memory_budget.hpp that declared counts, decompression and ray counts are
+// checked against.
+void add_memory_option(CLI::App& command) {
+  for (CLI::App* sub : command.get_subcommands({})) {
+    sub->add_option_function<std::string>(
+           "--max-memory",
+           [](const std::string& text) {
+             splitray::set_memory_budget(splitray::parse_memory_size(text, "--max-memory"));
+           },
+           "Memory budget for inputs, decompression and ray or query counts (K, M, G "
+           "suffixes; default: half of what the machine gives this process, now " +
+               splitray::memory_size_text(static_cast<double>(splitray::memory_budget())) + ")")
+        ->type_name("SIZE");
+    add_memory_option(*sub);
+  }
 }
 
 }  // namespace
@@ -47,6 +66,7 @@ int main(int argc, char** argv) {
   splitray::app::add_train_command(app);
   splitray::app::add_completion_command(app);
   splitray::cli::check_outputs_before_running(app);  // -o equal to an input, a link, a FIFO...
+  add_memory_option(app);
 
   try {
     // Name an unknown command rather than only saying that a command is required.

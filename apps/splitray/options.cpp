@@ -71,7 +71,10 @@ std::string camera_problem(const std::string& text, CameraSpec& out) {
     out.vfov_degrees = values[6];
   }
   if (out.eye == out.target) return "the eye and the target are the same point";
-  return {};
+  Camera camera;
+  camera.eye = out.eye;
+  camera.target = out.target;
+  return camera.problem();
 }
 
 bool ends_with_icase(const std::string& text, const std::string& suffix) {

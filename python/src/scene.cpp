@@ -25,29 +25,14 @@ std::string join(const std::vector<std::string>& names) {
   return out;
 }
 
-// A point beyond the mesh's bounds in every coordinate: a ray from it along (1, 1, 1) misses
-// every triangle, in every structure (Embree refuses rays with an empty interval).
-Vec3 point_outside(const MeshBuffers& mesh) {
-  Vec3 hi{-kInfinity};
-  for (std::size_t j = 0; j < mesh.triangle_count; ++j) {
-    const Triangle t = mesh.triangle(j);
-    hi = max(hi, max(t.v0, max(t.v1, t.v2)));
-  }
-  return hi + abs(hi) + Vec3{1};
-}
-
 // (N, 6) origins and directions as the library's rays. A ray with a non-finite component or
-// a zero direction has no hit (Open3D's answer): it becomes a ray leaving the mesh's bounds.
-std::vector<Ray> to_rays(const float* r, std::size_t n, float tnear, float tfar,
-                         const Vec3& outside) {
+// a zero direction misses (Open3D's answer): Accel's domain (splitray/core/coordinates.hpp).
+std::vector<Ray> to_rays(const float* r, std::size_t n, float tnear, float tfar) {
   std::vector<Ray> rays(n);
   parallel_chunks(n, 4096, [&](std::size_t b, std::size_t e) {
     for (std::size_t i = b; i < e; ++i) {
       const float* p = r + 6 * i;
-      bool ok = p[3] != 0 || p[4] != 0 || p[5] != 0;
-      for (int c = 0; c < 6; ++c) ok = ok && std::isfinite(p[c]);
-      rays[i] = ok ? Ray{{p[0], p[1], p[2]}, {p[3], p[4], p[5]}, tnear, tfar}
-                   : Ray{outside, {1, 1, 1}, 0, kInfinity};
+      rays[i] = Ray{{p[0], p[1], p[2]}, {p[3], p[4], p[5]}, tnear, tfar};
     }
   });
   return rays;
@@ -112,10 +97,8 @@ class Scene {
     config.builder = builder;
     const MeshBuffers mesh = buffers(vertices_, triangles_);
     py::gil_scoped_release release;
-    tbb::task_arena(threads_).execute([&] {
-      scene_ = std::make_unique<MeshScene>(mesh, accel, config, "vertices/triangles");
-      outside_ = point_outside(mesh);
-    });
+    tbb::task_arena(threads_).execute(
+        [&] { scene_ = std::make_unique<MeshScene>(mesh, accel, config, "vertices/triangles"); });
   }
 
   std::string update(py::handle vertices) {
@@ -124,10 +107,8 @@ class Scene {
     {
       py::gil_scoped_release release;
       std::unique_lock lock(mutex_);  // waits for casts running in other Python threads
-      tbb::task_arena(threads_).execute([&] {
-        how = scene_->update(buffers(v, triangles_), "vertices");
-        outside_ = point_outside(scene_->mesh());
-      });
+      tbb::task_arena(threads_).execute(
+          [&] { how = scene_->update(buffers(v, triangles_), "vertices"); });
     }
     vertices_ = v;  // the previous array is released only now that the scene left it
     return mesh_update_name(how);
@@ -150,7 +131,7 @@ class Scene {
       py::gil_scoped_release release;
       std::shared_lock lock(mutex_);
       tbb::task_arena(workers).execute([&] {
-        const std::vector<Ray> in = to_rays(r, n, 0, kInfinity, outside_);
+        const std::vector<Ray> in = to_rays(r, n, 0, kInfinity);
         std::vector<SurfaceHit> hits(n);
         scene_->intersect(in, hits);
         parallel_chunks(n, 4096, [&](std::size_t b, std::size_t e) {
@@ -192,7 +173,7 @@ class Scene {
       py::gil_scoped_release release;
       std::shared_lock lock(mutex_);
       tbb::task_arena(workers).execute([&] {
-        const std::vector<Ray> in = to_rays(r, n, tnear, tfar, outside_);
+        const std::vector<Ray> in = to_rays(r, n, tnear, tfar);
         std::vector<std::uint8_t> occluded(n);
         scene_->occluded(in, occluded);
         parallel_chunks(n, 4096, [&](std::size_t b, std::size_t e) {
@@ -216,7 +197,6 @@ class Scene {
   py::array_t<float> vertices_;  // the arrays scene_'s MeshBuffers point into
   py::array_t<std::uint32_t> triangles_;
   std::unique_ptr<MeshScene> scene_;
-  Vec3 outside_;                     // where rays that cannot hit start (to_rays)
   mutable std::shared_mutex mutex_;  // update() against casts from other Python threads
 };
 

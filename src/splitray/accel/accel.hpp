@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "splitray/core/coordinates.hpp"
 #include "splitray/core/ray.hpp"
 #include "splitray/core/triangle.hpp"
 
@@ -67,24 +68,42 @@ struct AccelStats {
   std::optional<int> top_depth;        // --builder neural: levels of the inferred top
 };
 
+// Every structure answers through these non-virtual calls, which bring rays to the domain of
+// coordinates.hpp first (one mechanism for all of them): a ray with a NaN or inf component, a
+// zero direction or an origin beyond +-2^40 misses, and a direction whose largest component lies
+// outside [2^-2, 2^2] is rescaled by an exact power of two (t is reported for the caller's
+// direction). The protected virtuals only ever see rays of that domain.
 class Accel {
  public:
   virtual ~Accel() = default;
 
   // Closest hit with ray.tmin <= t <= ray.tmax; ties go to the smaller primitive id.
-  virtual Hit intersect(const Ray& ray) const = 0;
+  Hit intersect(const Ray& ray) const;
   // Any hit with ray.tmin <= t <= ray.tmax.
-  virtual bool occluded(const Ray& ray) const = 0;
+  bool occluded(const Ray& ray) const;
 
   // Batched versions over all cores; results are identical to the single-ray calls.
-  virtual void intersect(std::span<const Ray> rays, std::span<Hit> hits) const;
-  virtual void occluded(std::span<const Ray> rays, std::span<std::uint8_t> occluded) const;
+  void intersect(std::span<const Ray> rays, std::span<Hit> hits) const;
+  void occluded(std::span<const Ray> rays, std::span<std::uint8_t> occluded) const;
+  // The batched calls made of one single-ray call per ray (what `trace --single` measures).
+  void intersect_each(std::span<const Ray> rays, std::span<Hit> hits) const;
+  void occluded_each(std::span<const Ray> rays, std::span<std::uint8_t> occluded) const;
 
   virtual const AccelStats& stats() const = 0;
 
   // Moves the structure to a deformed mesh with the same triangles (count and order) without
-  // rebuilding. Returns false when the structure cannot refit (then rebuild it).
-  virtual bool refit(std::span<const Triangle> triangles) {
+  // rebuilding. Returns false when the structure cannot refit (then rebuild it). Throws Error
+  // when a vertex lies beyond the coordinate limit.
+  bool refit(std::span<const Triangle> triangles);
+
+ protected:
+  // For rays of the domain above only.
+  virtual Hit closest_hit(const Ray& ray) const = 0;
+  virtual bool any_hit(const Ray& ray) const = 0;
+  // Default: the single-ray calls over all cores.
+  virtual void closest_hits(std::span<const Ray> rays, std::span<Hit> hits) const;
+  virtual void any_hits(std::span<const Ray> rays, std::span<std::uint8_t> occluded) const;
+  virtual bool refit_to(std::span<const Triangle> triangles) {
     (void)triangles;
     return false;
   }

@@ -8,6 +8,7 @@
 #include "splitray/accel/embree/embree_accel.hpp"
 #include "splitray/accel/kd/kd_accel.hpp"
 #include "splitray/accel/neural/neural_accel.hpp"
+#include "splitray/core/coordinates.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/core/parallel.hpp"
 
@@ -25,7 +26,8 @@ struct Entry {
 
 using MakeFn = std::unique_ptr<Accel> (*)(std::span<const Triangle>, const BuildConfig&);
 template <MakeFn kMake, MakeFn kMakeNeural>
-std::unique_ptr<Accel> make_or_neural(std::span<const Triangle> triangles, const BuildConfig& config) {
+std::unique_ptr<Accel> make_or_neural(std::span<const Triangle> triangles,
+                                      const BuildConfig& config) {
   return config.builder == "neural" ? kMakeNeural(triangles, config) : kMake(triangles, config);
 }
 
@@ -56,7 +58,9 @@ std::vector<std::string> accel_names() {
 
 std::vector<std::string> builder_names(const std::string& accel) {
   const auto it = registry().find(accel);
-  if (it == registry().end()) throw Error("--accel", "unknown structure '" + accel + "' (known: " + join(accel_names()) + ")");
+  if (it == registry().end())
+    throw Error("--accel",
+                "unknown structure '" + accel + "' (known: " + join(accel_names()) + ")");
   return it->second.builders;
 }
 
@@ -77,6 +81,7 @@ std::unique_ptr<Accel> make_accel(const std::string& name, std::span<const Trian
                                  " (known: " + join(builders) +
                                  (has_neural_builder(name) ? ", neural" : "") + ")");
   if (triangles.empty()) throw Error("build", "no triangles to build on");
+  check_triangles(triangles, "build");  // NaN, inf or beyond +-2^40: no structure is exact there
   ThreadLimit limit(resolved.threads);
   return registry().at(name).make(triangles, resolved);
 }

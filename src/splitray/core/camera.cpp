@@ -3,6 +3,8 @@
 #include <cmath>
 #include <numbers>
 
+#include "splitray/core/coordinates.hpp"
+
 namespace splitray {
 
 Ray Camera::generate(float x, float y, int width, int height) const {
@@ -27,6 +29,16 @@ Camera Camera::frame(const Aabb& box, float vfov_degrees) {
   const Vec3 direction = normalize(Vec3{0.6f, 0.45f, 1.0f});
   cam.eye = cam.target + direction * distance;
   return cam;
+}
+
+std::string Camera::problem() const {
+  if (const std::string p = origin_problem(eye); !p.empty()) return "the eye has " + p;
+  if (const std::string p = origin_problem(target); !p.empty()) return "the target has " + p;
+  if (!is_finite(up) || up == Vec3{}) return "the up vector is zero or not finite";
+  if (eye == target) return "the eye and the target are the same point";
+  if (!(vfov_degrees > 0 && vfov_degrees < 180))
+    return "the field of view must lie between 0 and 180 degrees";
+  return {};
 }
 
 }  // namespace splitray

@@ -1,5 +1,7 @@
 #pragma once
 // Pinhole look-at camera.
+#include <string>
+
 #include "splitray/core/aabb.hpp"
 #include "splitray/core/ray.hpp"
 
@@ -15,6 +17,10 @@ struct Camera {
   Ray generate(float x, float y, int width, int height) const;
   // A camera outside `box` looking at its centre from the front-right-above, seeing all of it.
   static Camera frame(const Aabb& box, float vfov_degrees = 45);
+  // Why the camera makes no usable rays (an eye or target beyond the ray-origin limit of
+  // coordinates.hpp, the same point, a zero up vector, a field of view outside (0, 180)), or ""
+  // when it is fine.
+  std::string problem() const;
 };
 
 }  // namespace splitray

@@ -1,5 +1,6 @@
 #include "splitray/core/mesh.hpp"
 
+#include "splitray/core/coordinates.hpp"
 #include "splitray/core/errors.hpp"
 
 namespace splitray {
@@ -20,13 +21,15 @@ std::vector<Triangle> Mesh::triangles() const {
 void Mesh::validate(const std::string& where) const {
   if (faces.empty()) throw Error(where, "the mesh has no triangles");
   for (std::size_t i = 0; i < positions.size(); ++i)
-    if (!is_finite(positions[i]))
-      throw Error(where, "vertex " + std::to_string(i) + " has a NaN or infinite coordinate");
+    if (!within_coordinate_limit(positions[i]))
+      throw Error(where,
+                  "vertex " + std::to_string(i) + " has " + coordinate_problem(positions[i]));
   for (std::size_t f = 0; f < faces.size(); ++f)
     for (std::uint32_t index : faces[f])
       if (index >= positions.size())
-        throw Error(where, "face " + std::to_string(f) + " refers to vertex " + std::to_string(index) +
-                               " but there are only " + std::to_string(positions.size()));
+        throw Error(where, "face " + std::to_string(f) + " refers to vertex " +
+                               std::to_string(index) + " but there are only " +
+                               std::to_string(positions.size()));
   if (!normals.empty() && normals.size() != positions.size())
     throw Error(where, "normal count differs from vertex count");
   if (!uvs.empty() && uvs.size() != positions.size())

@@ -1,5 +1,6 @@
 #include "splitray/core/scene.hpp"
 
+#include "splitray/core/coordinates.hpp"
 #include "splitray/core/errors.hpp"
 
 namespace splitray {
@@ -17,13 +18,28 @@ void Scene::validate(const std::string& where) const {
   for (std::size_t i = 0; i < instances.size(); ++i) {
     if (instances[i].mesh >= meshes.size())
       throw Error(where, "instance " + std::to_string(i) + " names mesh " +
-                             std::to_string(instances[i].mesh) + " of " + std::to_string(meshes.size()));
+                             std::to_string(instances[i].mesh) + " of " +
+                             std::to_string(meshes.size()));
     if (instances[i].material && *instances[i].material >= materials.size())
       throw Error(where, "instance " + std::to_string(i) + " names material " +
                              std::to_string(*instances[i].material) + " of " +
                              std::to_string(materials.size()));
   }
   for (const Mesh& mesh : meshes) mesh.validate(where + " (mesh '" + mesh.name + "')");
+  // Transforms may move valid vertices beyond the limit (or overflow them to inf).
+  for (std::size_t i = 0; i < instances.size(); ++i) {
+    const Mesh& mesh = meshes[instances[i].mesh];
+    for (std::size_t v = 0; v < mesh.positions.size(); ++v) {
+      const Vec3 p = instances[i].transform.point(mesh.positions[v]);
+      if (!within_coordinate_limit(p))
+        throw Error(where, "the transform of instance " + std::to_string(i) + " (mesh '" +
+                               mesh.name + "') moves vertex " + std::to_string(v) + " to " +
+                               coordinate_problem(p));
+    }
+  }
+  if (camera)
+    if (const std::string problem = camera->problem(); !problem.empty())
+      throw Error(where, "camera: " + problem);
 }
 
 FlatScene flatten(const Scene& scene) {
@@ -49,9 +65,10 @@ FlatScene flatten(const Scene& scene) {
       if (!mesh.uvs.empty())
         for (int k = 0; k < 3; ++k) uvs[k] = mesh.uvs[idx[k]];
       flat.triangles.push_back(tri);
-      flat.material.push_back(inst.material           ? *inst.material
-                              : mesh.materials.empty() ? 0
-                                                       : first_material[inst.mesh] + mesh.face_materials[f]);
+      flat.material.push_back(inst.material ? *inst.material
+                              : mesh.materials.empty()
+                                  ? 0
+                                  : first_material[inst.mesh] + mesh.face_materials[f]);
       flat.vertex_normals.push_back(normals);
       flat.uvs.push_back(uvs);
     }

@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <regex>
 
+#include "splitray/core/coordinates.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/io/aff.hpp"
 #include "splitray/io/mesh_io.hpp"
@@ -122,6 +123,11 @@ std::vector<Triangle> load_md2_frame(const std::string& path, int frame) {
       if (face.mNumIndices != 3) continue;
       Vec3 v[3];
       for (int c = 0; c < 3; ++c) {
+        if (face.mIndices[c] >= mesh.mNumVertices)
+          throw Error(path + " frame " + std::to_string(frame),
+                      "face " + std::to_string(f) + " has vertex index " +
+                          std::to_string(face.mIndices[c]) + " beyond its " +
+                          std::to_string(mesh.mNumVertices) + " vertices");
         const aiVector3D p = m * mesh.mVertices[face.mIndices[c]];
         v[c] = {p.x, p.y, p.z};
       }
@@ -187,15 +193,22 @@ std::optional<Scene> FrameSequence::scene() const {
 
 std::vector<Triangle> FrameSequence::load(std::size_t frame) const {
   if (frame >= size()) throw Error(source_, "frame " + std::to_string(frame) + " does not exist");
+  std::vector<Triangle> triangles;
   switch (kind_) {
     case Kind::md2:
-      return load_md2_frame(source_, static_cast<int>(frame));
-    case Kind::aff:
-      return aff_->triangles_at(aff_time(frame));
-    case Kind::files:
+      triangles = load_md2_frame(source_, static_cast<int>(frame));
       break;
+    case Kind::aff:
+      triangles = aff_->triangles_at(aff_time(frame));
+      break;
+    case Kind::files:
+      return load_mesh(labels_[frame]).triangles();  // load_mesh validates the mesh
   }
-  return load_mesh(labels_[frame]).triangles();
+  // MD2 keyframes (scaled by the file's per-frame factors) and AFF frames (moved by its
+  // animated transforms) get the checks of a loaded mesh.
+  if (triangles.empty()) throw Error(label(frame), "the frame has no triangles");
+  check_triangles(triangles, label(frame));
+  return triangles;
 }
 
 std::vector<std::vector<Triangle>> load_frames(const FrameSequence& frames,

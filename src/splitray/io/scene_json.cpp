@@ -246,6 +246,7 @@ Camera parse_camera(const Reader& r, const json& j, const std::string& where) {
   if (const json* v = r.optional(j, "fov"))
     cam.vfov_degrees =
         r.number_in(*v, key_path(where, "fov"), 1e-3f, 179, "between 0.001 and 179 degrees");
+  if (const std::string problem = cam.problem(); !problem.empty()) r.fail(where, problem);
   return cam;
 }
 

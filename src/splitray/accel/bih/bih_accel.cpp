@@ -20,8 +20,8 @@ class BihAccel final : public Accel {
     bih_.fill_stats(stats_, config.traversal_cost, config.intersection_cost);
   }
 
-  Hit intersect(const Ray& ray) const override { return bih_.intersect(ray); }
-  bool occluded(const Ray& ray) const override { return bih_.occluded(ray); }
+  Hit closest_hit(const Ray& ray) const override { return bih_.intersect(ray); }
+  bool any_hit(const Ray& ray) const override { return bih_.occluded(ray); }
   const AccelStats& stats() const override { return stats_; }
 
  private:

@@ -26,7 +26,7 @@ class BruteAccel final : public Accel {
     stats_.build_ms = timer.ms();
   }
 
-  Hit intersect(const Ray& ray) const override {
+  Hit closest_hit(const Ray& ray) const override {
     const WatertightRay wray(ray);
     Hit hit;
     hit.t = ray.tmax;
@@ -36,7 +36,7 @@ class BruteAccel final : public Accel {
     return hit;
   }
 
-  bool occluded(const Ray& ray) const override {
+  bool any_hit(const Ray& ray) const override {
     const WatertightRay wray(ray);
     float t, u, v;
     for (const Triangle& tri : triangles_)

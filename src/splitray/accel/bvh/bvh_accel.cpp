@@ -19,11 +19,11 @@ class BvhAccel final : public Accel {
     bvh_.fill_stats(stats_, traversal_cost_, intersection_cost_);
   }
 
-  Hit intersect(const Ray& ray) const override { return bvh_.intersect(ray); }
-  bool occluded(const Ray& ray) const override { return bvh_.occluded(ray); }
+  Hit closest_hit(const Ray& ray) const override { return bvh_.intersect(ray); }
+  bool any_hit(const Ray& ray) const override { return bvh_.occluded(ray); }
   const AccelStats& stats() const override { return stats_; }
 
-  bool refit(std::span<const Triangle> triangles) override {
+  bool refit_to(std::span<const Triangle> triangles) override {
     Timer timer;
     bvh_.refit(triangles);
     stats_.build_ms = timer.ms();

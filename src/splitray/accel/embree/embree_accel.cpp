@@ -150,6 +150,7 @@ class EmbreeAccel final : public EmbreeScene {
       throw Error("--accel embree", "a frame has " + std::to_string(triangles.size()) +
                                         " triangles, the scene " + std::to_string(prims_) +
                                         ": a deforming mesh keeps its triangle count");
+    check_triangles(triangles, "--accel embree");
     const Timer timer;
     write_vertices(triangles);
     rtcUpdateGeometryBuffer(geometry_.get(), RTC_BUFFER_TYPE_VERTEX, 0);
@@ -160,7 +161,7 @@ class EmbreeAccel final : public EmbreeScene {
     return stats_.build_ms;
   }
 
-  Hit intersect(const Ray& ray) const override {
+  Hit closest_hit(const Ray& ray) const override {
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);
     RTCRayHit rayhit;
@@ -171,7 +172,7 @@ class EmbreeAccel final : public EmbreeScene {
     return to_hit(rayhit);
   }
 
-  bool occluded(const Ray& ray) const override {
+  bool any_hit(const Ray& ray) const override {
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);
     RTCRay r;
@@ -185,14 +186,14 @@ class EmbreeAccel final : public EmbreeScene {
   // were slower. Coherent streams (rtcIntersect1M) were ~1.5x faster still on camera rays, but
   // they pick other primitives at ties (coplanar faces) and other last bits of t than
   // rtcIntersect1 (~0.3% of the rays in sibenik), which the interface does not allow.
-  void intersect(std::span<const Ray> rays, std::span<Hit> hits) const override {
+  void closest_hits(std::span<const Ray> rays, std::span<Hit> hits) const override {
     parallel_chunks(rays.size(), kChunk, [&](std::size_t begin, std::size_t end) {
       for (std::size_t i = begin; i < end; i += kPacket)
         intersect_packet(rays.subspan(i, std::min(kPacket, end - i)), hits.subspan(i));
     });
   }
 
-  void occluded(std::span<const Ray> rays, std::span<std::uint8_t> result) const override {
+  void any_hits(std::span<const Ray> rays, std::span<std::uint8_t> result) const override {
     parallel_chunks(rays.size(), kChunk, [&](std::size_t begin, std::size_t end) {
       for (std::size_t i = begin; i < end; i += kPacket)
         occluded_packet(rays.subspan(i, std::min(kPacket, end - i)), result.subspan(i));
@@ -293,6 +294,7 @@ std::unique_ptr<Accel> make_embree(std::span<const Triangle> triangles, const Bu
 
 std::unique_ptr<EmbreeScene> make_embree_scene(std::span<const Triangle> triangles,
                                                const BuildConfig& config) {
+  check_triangles(triangles, "--accel embree");
   return std::make_unique<EmbreeAccel>(triangles, config);
 }
 

@@ -35,10 +35,10 @@ class KdAccel final : public Accel {
   KdAccel(KdTree tree, std::span<const Triangle> triangles, const BuildConfig& config,
           std::uint64_t cost_evals, const Timer& build_timer);
 
-  Hit intersect(const Ray& ray) const override;
-  bool occluded(const Ray& ray) const override;
-  void intersect(std::span<const Ray> rays, std::span<Hit> hits) const override;
-  void occluded(std::span<const Ray> rays, std::span<std::uint8_t> occluded) const override;
+  Hit closest_hit(const Ray& ray) const override;
+  bool any_hit(const Ray& ray) const override;
+  void closest_hits(std::span<const Ray> rays, std::span<Hit> hits) const override;
+  void any_hits(std::span<const Ray> rays, std::span<std::uint8_t> occluded) const override;
   const AccelStats& stats() const override { return stats_; }
 
   const KdTree& tree() const { return tree_; }

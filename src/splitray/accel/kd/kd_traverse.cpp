@@ -115,18 +115,18 @@ bool KdAccel::traverse(const Ray& ray, Hit& hit) const {
   }
 }
 
-Hit KdAccel::intersect(const Ray& ray) const {
+Hit KdAccel::closest_hit(const Ray& ray) const {
   Hit hit;
   if (!traverse<false>(ray, hit)) hit = Hit{};
   return hit;
 }
 
-bool KdAccel::occluded(const Ray& ray) const {
+bool KdAccel::any_hit(const Ray& ray) const {
   Hit unused;
   return traverse<true>(ray, unused);
 }
 
-void KdAccel::intersect(std::span<const Ray> rays, std::span<Hit> hits) const {
+void KdAccel::closest_hits(std::span<const Ray> rays, std::span<Hit> hits) const {
   if (hits.size() < rays.size()) throw Error("kd intersect", "fewer hit slots than rays");
   if (rays.size() > std::numeric_limits<std::uint32_t>::max())
     throw Error("kd intersect", "more than 2^32 - 1 rays in one call");
@@ -148,7 +148,7 @@ void KdAccel::intersect(std::span<const Ray> rays, std::span<Hit> hits) const {
   });
 }
 
-void KdAccel::occluded(std::span<const Ray> rays, std::span<std::uint8_t> result) const {
+void KdAccel::any_hits(std::span<const Ray> rays, std::span<std::uint8_t> result) const {
   if (result.size() < rays.size()) throw Error("kd occluded", "fewer result slots than rays");
   if (rays.size() > std::numeric_limits<std::uint32_t>::max())
     throw Error("kd occluded", "more than 2^32 - 1 rays in one call");

@@ -247,9 +247,9 @@ void KdAccel::walk_interleaved(const Ray* rays, const std::uint32_t* which, std:
         }
       }
       if constexpr (kAnyHit)
-        occluded[i] = KdAccel::occluded(ray) ? 1 : 0;
+        occluded[i] = KdAccel::any_hit(ray) ? 1 : 0;
       else
-        hit = KdAccel::intersect(ray);
+        hit = KdAccel::closest_hit(ray);
     }
     walks[slot] = nullptr;
   };
@@ -298,9 +298,9 @@ void KdAccel::walk_each(const Ray* rays, const std::uint32_t* which, std::size_t
   for (std::size_t k = 0; k < n; ++k) {
     const std::uint32_t i = which[k];
     if constexpr (kAnyHit)
-      occluded[i] = KdAccel::occluded(rays[i]) ? 1 : 0;
+      occluded[i] = KdAccel::any_hit(rays[i]) ? 1 : 0;
     else
-      hits[i] = KdAccel::intersect(rays[i]);
+      hits[i] = KdAccel::closest_hit(rays[i]);
   }
 }
 

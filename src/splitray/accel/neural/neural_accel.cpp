@@ -22,16 +22,16 @@ class NeuralAccel final : public Accel {
  public:
   NeuralAccel(std::unique_ptr<Accel> inner, AccelStats stats)
       : inner_(std::move(inner)), stats_(std::move(stats)) {}
-  Hit intersect(const Ray& ray) const override { return inner_->intersect(ray); }
-  bool occluded(const Ray& ray) const override { return inner_->occluded(ray); }
-  void intersect(std::span<const Ray> rays, std::span<Hit> hits) const override {
+  Hit closest_hit(const Ray& ray) const override { return inner_->intersect(ray); }
+  bool any_hit(const Ray& ray) const override { return inner_->occluded(ray); }
+  void closest_hits(std::span<const Ray> rays, std::span<Hit> hits) const override {
     inner_->intersect(rays, hits);
   }
-  void occluded(std::span<const Ray> rays, std::span<std::uint8_t> occluded) const override {
+  void any_hits(std::span<const Ray> rays, std::span<std::uint8_t> occluded) const override {
     inner_->occluded(rays, occluded);
   }
   const AccelStats& stats() const override { return stats_; }
-  bool refit(std::span<const Triangle> triangles) override {
+  bool refit_to(std::span<const Triangle> triangles) override {
     if (!inner_->refit(triangles)) return false;
     AccelStats refitted = inner_->stats();
     refitted.builder = stats_.builder;
@@ -52,10 +52,10 @@ class TopBvhAccel final : public Accel {
   TopBvhAccel(Bvh bvh, const BuildConfig& config) : bvh_(std::move(bvh)), config_(config) {
     bvh_.fill_stats(stats_, config.traversal_cost, config.intersection_cost);
   }
-  Hit intersect(const Ray& ray) const override { return bvh_.intersect(ray); }
-  bool occluded(const Ray& ray) const override { return bvh_.occluded(ray); }
+  Hit closest_hit(const Ray& ray) const override { return bvh_.intersect(ray); }
+  bool any_hit(const Ray& ray) const override { return bvh_.occluded(ray); }
   const AccelStats& stats() const override { return stats_; }
-  bool refit(std::span<const Triangle> triangles) override {
+  bool refit_to(std::span<const Triangle> triangles) override {
     Timer timer;
     bvh_.refit(triangles);
     stats_.build_ms = timer.ms();
@@ -74,14 +74,9 @@ bool overlaps_closed(const Aabb& a, const Aabb& b) {
          a.lo.z <= b.hi.z && a.hi.z >= b.lo.z;
 }
 
-void check_triangles(std::span<const Triangle> triangles, const std::string& accel) {
+void check_input(std::span<const Triangle> triangles, const std::string& accel) {
   if (triangles.empty()) throw Error("--accel " + accel, "no triangles to build on");
-  for (std::size_t i = 0; i < triangles.size(); ++i) {
-    const Triangle& t = triangles[i];
-    if (!is_finite(t.v0) || !is_finite(t.v1) || !is_finite(t.v2))
-      throw Error("--accel " + accel,
-                  "triangle " + std::to_string(i) + " has a NaN or infinite coordinate");
-  }
+  check_triangles(triangles, "--accel " + accel);
 }
 
 Aabb bounds_of(std::span<const Triangle> triangles) {
@@ -220,7 +215,7 @@ KdTree expand_top_kd(std::span<const Triangle> triangles, const NeuralTop& top, 
 
 std::unique_ptr<Accel> make_neural_kd(std::span<const Triangle> triangles,
                                       const BuildConfig& config) {
-  check_triangles(triangles, "kd");
+  check_input(triangles, "kd");
   const std::string expand = expand_name(config, kd_builder_names().front());
   if (expand == "neural") throw Error("--expand", "neural cannot expand its own top");
   const KdBuilder builder = kd_builder(expand);
@@ -242,7 +237,7 @@ std::unique_ptr<Accel> make_neural_kd(std::span<const Triangle> triangles,
 
 std::unique_ptr<Accel> make_neural_bvh(std::span<const Triangle> triangles,
                                        const BuildConfig& config) {
-  check_triangles(triangles, "bvh");
+  check_input(triangles, "bvh");
   const std::string expand = expand_name(config, "binned");
   const LeafExpander expander = parse_leaf_expander(expand);
   const NeuralModel model = load_neural_model(config.model, NeuralCost::sah);
