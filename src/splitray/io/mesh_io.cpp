@@ -277,8 +277,7 @@ Mesh load_mesh(const std::string& path, const MeshLoadOptions& options) {
   const auto check_references = [&] {
     if (!io->refused().empty())
       throw Error(path, "refers to the file " + io->refused() +
-                            ", which lies outside the folder of the model; refusing to read it "
-                            "(MeshLoadOptions::references_root widens the folder)");
+                            ", which lies outside the folder of the model; refusing to read it");
   };
 
   const aiScene* scene = [&] {
