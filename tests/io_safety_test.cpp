@@ -1,7 +1,7 @@
 // The library's side of issue #23: readers take regular files only (a FIFO must not block),
 // writers never replace an input, a link, a FIFO or a device and leave no temporary file;
 // AFF include limits; formats detected from the content; small undefined behaviours.
-// The command line's side is the table of hostile_inputs_test.
+// The command line's side is the table of hostile_files_test (tests/hostile_files/table.txt).
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <unistd.h>
