@@ -207,3 +207,73 @@ TEST(MpiAnimate, TwoAndThreeRanksWriteTheSingleProcessFrames) {
   }
   fs::remove_all(dir);
 }
+
+namespace {
+
+// The collapsing horse's single-process frames, rendered once for the tests below.
+fs::path reference_frames(const fs::path& dir, const std::string& frames) {
+  const fs::path one = dir / "one";
+  const Outcome single =
+      run_splitray("animate " + frames + kAnimate + " --render " + quote(one.string()), dir);
+  EXPECT_EQ(single.status, 0) << single.err;
+  return one;
+}
+
+}  // namespace
+
+TEST(MpiAnimate, ResumeRendersOnlyTheMissingAndBrokenFrames) {
+  REQUIRE_MPI();
+  SPLITRAY_REQUIRE_SHARED(first, kFrames + "/horse-collapse-01.obj.gz");
+  const fs::path dir = fresh_dir();
+  const std::string frames = quote(fs::path(first).parent_path().string());
+  const fs::path one = reference_frames(dir, frames);
+  // A run that was stopped: frame 1 never written, frame 3 cut off half way.
+  const fs::path out = dir / "resumed";
+  fs::copy(one, out);
+  fs::remove(out / frame_name(1));
+  fs::resize_file(out / frame_name(3), fs::file_size(out / frame_name(3)) / 2);
+  const fs::path json = dir / "resumed.json";
+  const Outcome run = mpirun(2,
+                             "animate " + frames + kAnimate + " --resume --render " +
+                                 quote(out.string()) + " --json-out " + quote(json.string()),
+                             dir);
+  ASSERT_EQ(run.status, 0) << run.err;
+  const auto report = nlohmann::json::parse(read_text(json));
+  EXPECT_EQ(report["rendered"], 2);
+  EXPECT_EQ(report["kept"], nlohmann::json::array({0, 2, 4}));
+  for (int f = 0; f < 5; ++f)
+    EXPECT_TRUE(read_text(out / frame_name(f)) == read_text(one / frame_name(f)))
+        << frame_name(f) << " differs after --resume";
+  fs::remove_all(dir);
+}
+
+TEST(MpiAnimate, ACorruptFrameEndsEveryRankWithOneMessageAndNoPartialImage) {
+  REQUIRE_MPI();
+  SPLITRAY_REQUIRE_SHARED(first, kFrames + "/horse-collapse-01.obj.gz");
+  const fs::path dir = fresh_dir();
+  const fs::path frames = dir / "frames";
+  fs::create_directories(frames);
+  for (int f = 1; f <= 5; ++f) {
+    const std::string name = "horse-collapse-0" + std::to_string(f) + ".obj.gz";
+    fs::copy_file(fs::path(first).parent_path() / name, frames / name);
+  }
+  // Frame 3 (index 2) cut off inside its gzip stream.
+  const fs::path broken = frames / "horse-collapse-03.obj.gz";
+  fs::resize_file(broken, fs::file_size(broken) / 2);
+  const fs::path out = dir / "out";
+  const Outcome run = mpirun(
+      2, "animate " + quote(frames.string()) + kAnimate + " --render " + quote(out.string()), dir);
+  EXPECT_EQ(run.status, 1) << run.err;
+  EXPECT_NE(run.err.find("horse-collapse-03.obj.gz"), std::string::npos) << run.err;
+  std::size_t messages = 0;
+  for (std::size_t at = 0; (at = run.err.find("splitray: ", at)) != std::string::npos; ++at)
+    ++messages;
+  EXPECT_EQ(messages, 1u) << "one message, from one rank:\n" << run.err;
+  // Frames finished before the error may stay; every file left is a whole image.
+  if (fs::exists(out))
+    for (const auto& entry : fs::directory_iterator(out)) {
+      EXPECT_EQ(entry.path().extension(), ".png") << entry.path() << " left behind";
+      EXPECT_EQ(read_png(entry.path()).width, 96) << entry.path();
+    }
+  fs::remove_all(dir);
+}

@@ -5,8 +5,7 @@
 #include <cstdio>
 #include <vector>
 
-#include "splitray/accel/mesh_scene.hpp"
-#include "splitray/io/mesh_io.hpp"
+#include "splitray/splitray.hpp"  // the whole public API
 
 int main(int argc, char** argv) {
   if (argc != 2) {
