@@ -1,7 +1,8 @@
 // The hostile-input table of issue #23 (tests/hostile_files/table.txt): every row through the
 // splitray program under a 2 GiB address-space limit and a timeout. A row passes when the run
 // exits with code 1 (not a signal, not a timeout), stderr names the file (or option) and
-// contains the expected text, no file appeared in the folder and none changed.
+// contains the expected text, no file appeared in the folder and none changed. The commands
+// run in the folder, beside the special files (FIFOs, folders, links) of the "@" lines.
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -39,12 +40,24 @@ std::string trim(const std::string& s) {
   return b == std::string::npos ? "" : s.substr(b, e - b + 1);
 }
 
-std::vector<Row> read_table() {
+// "@fifo NAME", "@folder NAME", "@symlink NAME TARGET", "@hardlink NAME TARGET".
+struct Special {
+  std::string kind, name, target;
+};
+
+std::vector<Row> read_table(std::vector<Special>& specials) {
   std::ifstream in(kTable / "table.txt");
   std::vector<Row> rows;
   std::string line;
   for (int number = 1; std::getline(in, line); ++number) {
     if (trim(line).empty() || trim(line)[0] == '#') continue;
+    if (line[0] == '@') {
+      std::istringstream words(line);
+      Special special;
+      words >> special.kind >> special.name >> special.target;
+      specials.push_back(special);
+      continue;
+    }
     std::vector<std::string> cells;
     for (std::size_t at = 0;;) {
       const std::size_t bar = line.find(" | ", at);
@@ -71,12 +84,32 @@ void write_gzip_bomb(const fs::path& path) {
   ASSERT_EQ(gzclose(out), Z_OK);
 }
 
-// Name -> content hash of every regular file in `dir` (FIFOs by name only).
+void make_special(const fs::path& dir, const Special& s) {
+  const fs::path path = dir / s.name;
+  if (s.kind == "@fifo") {
+    ASSERT_EQ(mkfifo(path.c_str(), 0600), 0) << s.name;
+  } else if (s.kind == "@folder") {
+    fs::create_directory(path);
+  } else if (s.kind == "@symlink") {
+    fs::create_symlink(s.target, path);
+  } else if (s.kind == "@hardlink") {
+    fs::create_hard_link(dir / s.target, path);
+  } else {
+    FAIL() << "table.txt: unknown special file " << s.kind;
+  }
+}
+
+// Name -> hash of every entry of `dir`: a regular file's content, a link's target (a link
+// replaced by a copy of its target is a change), other kinds by type only.
 std::map<std::string, std::size_t> snapshot(const fs::path& dir) {
   std::map<std::string, std::size_t> files;
-  for (const auto& entry : fs::directory_iterator(dir))
-    files[entry.path().filename().string()] =
-        entry.is_regular_file() ? std::hash<std::string>{}(read_text(entry.path())) : 0;
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    const std::string text = entry.is_symlink() ? "link " + fs::read_symlink(entry).string()
+                             : entry.is_regular_file()
+                                 ? read_text(entry.path())
+                                 : std::to_string(static_cast<int>(entry.status().type()));
+    files[entry.path().filename().string()] = std::hash<std::string>{}(text);
+  }
   return files;
 }
 
@@ -88,13 +121,14 @@ std::string replace_all(std::string text, const std::string& from, const std::st
 
 TEST(HostileFiles, EveryRowFailsCleanlyNamesItsFileAndTouchesNothing) {
   ASSERT_TRUE(fs::exists(kBinary)) << kBinary;
-  const std::vector<Row> rows = read_table();
+  std::vector<Special> specials;
+  const std::vector<Row> rows = read_table(specials);
   ASSERT_GE(rows.size(), 10u);
   const fs::path dir = splitray::test::temp_dir("hostile_files");
   for (const auto& entry : fs::directory_iterator(kTable))
     fs::copy_file(entry.path(), dir / entry.path().filename());
   write_gzip_bomb(dir / "bomb.obj.gz");
-  ASSERT_EQ(mkfifo((dir / "fifo.obj").c_str(), 0600), 0);
+  for (const Special& special : specials) make_special(dir, special);
   const auto before = snapshot(dir);
   for (const Row& row : rows) {
     const std::string where =
@@ -103,8 +137,14 @@ TEST(HostileFiles, EveryRowFailsCleanlyNamesItsFileAndTouchesNothing) {
     const std::string args = replace_all(replace_all(row.command, "{in}", quote(in)), "{out}",
                                          quote((dir / "out").string()));
     const fs::path err = dir.parent_path() / "hostile_files_stderr.txt";
-    const std::string command = "prlimit --as=2147483648 timeout 60 " + quote(kBinary) + " " +
-                                args + " > /dev/null 2> " + quote(err.string()) + " < /dev/null";
+#if defined(__SANITIZE_ADDRESS__)
+    const std::string limit;  // AddressSanitizer reserves terabytes of address space
+#else
+    const std::string limit = "prlimit --as=2147483648 ";
+#endif
+    const std::string command = "cd " + quote(dir.string()) + " && " + limit + "timeout 60 " +
+                                quote(kBinary) + " " + args + " > /dev/null 2> " +
+                                quote(err.string()) + " < /dev/null";
     const int raw = std::system(command.c_str());
     const std::string message = read_text(err);
     fs::remove(err);

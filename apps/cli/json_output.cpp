@@ -4,7 +4,8 @@
 
 #include <iostream>
 
-#include "splitray/core/image.hpp"
+#include "file_options.hpp"
+#include "splitray/core/output_file.hpp"
 
 namespace splitray::cli {
 
@@ -12,8 +13,8 @@ void add_json_options(CLI::App& command, JsonOutput& output, const std::string& 
   command.add_flag("--json", output.print,
                    "Print the result as one JSON object on stdout" +
                        (keys.empty() ? std::string() : ": " + keys));
-  command.add_option("--json-out", output.file,
-                     "Write the same JSON object to this file (atomically)");
+  output_file(command.add_option("--json-out", output.file,
+                                 "Write the same JSON object to this file (atomically)"));
 }
 
 void emit_json(const JsonOutput& output, const nlohmann::ordered_json& object) {

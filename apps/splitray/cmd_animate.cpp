@@ -16,6 +16,7 @@
 #include "animate_refit.hpp"
 #include "commands.hpp"
 #include "dist_animate.hpp"
+#include "file_options.hpp"
 #include "frame_renderer.hpp"
 #include "json_output.hpp"
 #include "options.hpp"
@@ -638,6 +639,8 @@ void add_animate_command(CLI::App& app) {
   sub->add_option("--run-length", command->run_length,
                   "Under mpirun: consecutive frames per hand-out, over which a rank keeps its "
                   "predictor (0 = about a quarter of each rank's share, at most 16)");
+  cli::input_files(sub->get_option("frames"));
+  for (const char* name : {"--csv", "--plot", "--results"}) cli::output_file(sub->get_option(name));
   sub->callback([command] { run(*command); });
 }
 

@@ -4,6 +4,7 @@
 #include <memory>
 
 #include "commands.hpp"
+#include "file_options.hpp"
 #include "json_output.hpp"
 #include "options.hpp"
 
@@ -41,16 +42,20 @@ void run(const BuildCommand& command) {
 
 void add_build_command(CLI::App& app) {
   auto command = std::make_shared<BuildCommand>();
-  CLI::App* sub = app.add_subcommand("build", "Build a structure over a mesh and print its statistics");
-  sub->add_option("MESH", command->mesh, "Mesh file (any format of render; also *.gz) or JSON scene")
+  CLI::App* sub =
+      app.add_subcommand("build", "Build a structure over a mesh and print its statistics");
+  sub->add_option("MESH", command->mesh,
+                  "Mesh file (any format of render; also *.gz) or JSON scene")
       ->required();
   add_accel_options(*sub, command->accel);
-  cli::add_json_options(*sub, command->json,
-                "prims, build_ms, sah_cost (null if none), nodes, leaves, "
-                "empty_leaves, max_depth, mean_leaf_depth, mean_leaf_prims, prim_refs, bytes, "
-                "cost_evals, accel, builder, mesh, load_ms, threads; with --builder neural also "
-                "inference_ms and top_depth (sah_cost is computed from the finished tree the same "
-                "way for every builder)");
+  cli::add_json_options(
+      *sub, command->json,
+      "prims, build_ms, sah_cost (null if none), nodes, leaves, "
+      "empty_leaves, max_depth, mean_leaf_depth, mean_leaf_prims, prim_refs, bytes, "
+      "cost_evals, accel, builder, mesh, load_ms, threads; with --builder neural also "
+      "inference_ms and top_depth (sah_cost is computed from the finished tree the same "
+      "way for every builder)");
+  cli::input_files(sub->get_option("MESH"));
   sub->callback([command] { run(*command); });
 }
 

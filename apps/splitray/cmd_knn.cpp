@@ -9,6 +9,7 @@
 #include <optional>
 
 #include "commands.hpp"
+#include "file_options.hpp"
 #include "json_output.hpp"
 #include "options.hpp"
 #include "splitray/core/errors.hpp"
@@ -236,6 +237,10 @@ void add_knn_command(CLI::App& app) {
       "--radius), neighbors, input, sampled, seed, leaf_size, threads, load_ms, and for "
       "our trees vvh_radius, vvh_cost, nodes, leaves, max_depth, bytes (and inference_ms, "
       "top_depth for --builder neural)");
+  cli::input_files(sub->get_option("INPUT"));
+  cli::input_files(sub->get_option("--queries-in"));
+  cli::input_files(sub->get_option("--model"));
+  cli::output_file(sub->get_option("--out"));
   sub->callback([command] { run(*command); });
 }
 

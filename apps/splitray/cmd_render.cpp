@@ -10,6 +10,7 @@
 
 #include "commands.hpp"
 #include "dist_render.hpp"
+#include "file_options.hpp"
 #include "json_output.hpp"
 #include "options.hpp"
 #include "progress.hpp"
@@ -254,6 +255,8 @@ void add_render_command(CLI::App& app) {
       ->check(CLI::Range(1, 16384));
   add_accel_options(*sub, command->accel);
   cli::add_json_options(*sub, command->json, "the keys of the README's render table");
+  cli::input_files(sub->get_option("SCENE"));
+  cli::output_file(sub->get_option("--output"));
   sub->callback([command] { run(*command); });
 }
 

@@ -9,6 +9,7 @@
 #include <optional>
 
 #include "commands.hpp"
+#include "file_options.hpp"
 #include "json_output.hpp"
 #include "options.hpp"
 #include "splitray/core/errors.hpp"
@@ -254,6 +255,9 @@ void add_trace_command(CLI::App& app) {
       "rays, hits, sum_t, id_checksum, ms, mrays_per_s, cpu_ms, "
       "mrays_per_cpu_s, build_ms, "
       "accel, builder, prims, kind, seed, any, single, repeat, threads, mesh, load_ms, rays_ms");
+  cli::input_files(sub->get_option("MESH"));
+  cli::input_files(sub->get_option("--rays-in"));
+  cli::output_file(sub->get_option("--hits-out"));
   sub->callback([command] { run(*command); });
 }
 

@@ -7,6 +7,7 @@
 #include <memory>
 
 #include "commands.hpp"
+#include "file_options.hpp"
 #include "json_output.hpp"
 #include "options.hpp"
 #include "splitray/core/errors.hpp"
@@ -139,6 +140,8 @@ void add_view_command(CLI::App& app) {
   add_accel_options(*sub, command->accel);
   cli::add_json_options(*sub, command->json,
                         "at exit: frames_shown, fps, gl_renderer, triangles, lights, screenshot");
+  cli::input_files(sub->get_option("SCENE"));
+  cli::output_file(sub->get_option("--screenshot"));
   sub->callback([command] { run(*command); });
 }
 

@@ -7,6 +7,7 @@
 #include <new>
 
 #include "commands.hpp"
+#include "file_options.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/core/memory_budget.hpp"
 #include "splitray/dist/world.hpp"
@@ -64,6 +65,7 @@ int main(int argc, char** argv) {
   splitray::app::add_view_command(app);
   splitray::app::add_train_command(app);
   splitray::app::add_completion_command(app);
+  splitray::cli::check_outputs_before_running(app);  // -o equal to an input, a link, a FIFO...
   add_memory_option(app);
 
   try {

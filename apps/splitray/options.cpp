@@ -10,7 +10,9 @@
 #include <iostream>
 #include <system_error>
 
+#include "file_options.hpp"
 #include "splitray/core/errors.hpp"
+#include "splitray/core/output_file.hpp"
 #include "splitray/core/parallel.hpp"
 #include "splitray/core/scene.hpp"
 #include "splitray/core/timer.hpp"
@@ -130,10 +132,10 @@ void add_accel_options(CLI::App& command, AccelOptions& options) {
           "Bins per axis of binned builders (kd binned: in nodes of more than 64 triangles)")
       ->check(CLI::Range(2, 1 << 16))
       ->group(group);
-  command
-      .add_option("--model", options.build.model,
-                  "--builder neural: model file (default: models/sah.bin of the source tree, "
-                  "$SPLITRAY_MODEL_DIR or share/splitray/models)")
+  cli::input_files(command.add_option(
+                       "--model", options.build.model,
+                       "--builder neural: model file (default: models/sah.bin of the source tree, "
+                       "$SPLITRAY_MODEL_DIR or share/splitray/models)"))
       ->group(group);
   command
       .add_option("--expand", options.build.expand,
@@ -283,6 +285,7 @@ void check_output_path(const std::string& path, const std::string& extension) {
   if (!parent.empty() && !std::filesystem::is_directory(parent, error))
     throw Error(path, "cannot write: folder " + parent.string() + " does not exist");
   if (std::filesystem::is_directory(path, error)) throw Error(path, "cannot write: it is a folder");
+  check_output_file(path);
 }
 
 int effective_threads(int threads) { return threads > 0 ? threads : hardware_threads(); }

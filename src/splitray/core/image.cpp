@@ -10,14 +10,12 @@
 #include <algorithm>
 #include <bit>
 #include <cctype>
-#include <cstring>
-#include <vector>
-
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <unistd.h>
+#include <vector>
 
 #include "splitray/core/errors.hpp"
 
@@ -28,21 +26,9 @@ namespace {
 unsigned char encode_srgb(float linear) {
   if (!(linear > 0)) return 0;  // also NaN
   if (linear >= 1) return 255;
-  const float s = linear <= 0.0031308f ? 12.92f * linear : 1.055f * std::pow(linear, 1 / 2.4f) - 0.055f;
+  const float s =
+      linear <= 0.0031308f ? 12.92f * linear : 1.055f * std::pow(linear, 1 / 2.4f) - 0.055f;
   return static_cast<unsigned char>(std::lround(s * 255.0f));
-}
-
-std::string temporary_name(const std::string& path) {
-  return path + ".tmp." + std::to_string(::getpid());
-}
-
-void rename_into_place(const std::string& tmp, const std::string& path) {
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::filesystem::remove(tmp, ec);
-    throw Error(path, "cannot write the file (rename failed)");
-  }
 }
 
 }  // namespace
@@ -57,13 +43,16 @@ std::vector<unsigned char> Image::to_srgb8() const {
 void write_png(const std::string& path, const Image& image) {
   if (image.width <= 0 || image.height <= 0) throw Error(path, "cannot write an empty image");
   const std::vector<unsigned char> bytes = image.to_srgb8();
-  const std::string tmp = temporary_name(path);
-  if (!stbi_write_png(tmp.c_str(), image.width, image.height, 3, bytes.data(), image.width * 3)) {
-    std::error_code ec;
-    std::filesystem::remove(tmp, ec);
-    throw Error(path, "cannot write the PNG file (does the folder exist and is it writable?)");
-  }
-  rename_into_place(tmp, path);
+  // Encoded in memory, then written like every other output (core/output_file.hpp).
+  std::string png;
+  const auto append = [](void* context, void* data, int size) {
+    static_cast<std::string*>(context)->append(static_cast<const char*>(data),
+                                               static_cast<std::size_t>(size));
+  };
+  if (!stbi_write_png_to_func(append, &png, image.width, image.height, 3, bytes.data(),
+                              image.width * 3))
+    throw Error(path, "cannot encode the PNG image");
+  write_file_atomically(path, png);
 }
 
 ImageFormat check_image_path(const std::string& path) {
@@ -87,6 +76,7 @@ ImageFormat check_image_path(const std::string& path) {
   if (!parent.empty() && !std::filesystem::is_directory(parent, error))
     throw Error(path, "cannot write: folder " + parent.string() + " does not exist");
   if (std::filesystem::is_directory(path, error)) throw Error(path, "cannot write: it is a folder");
+  check_output_file(path);
   return format;
 }
 
@@ -94,12 +84,12 @@ namespace {
 
 // OpenEXR through its own writer (scanlines, ZIP compression) into the temporary file.
 void write_exr(const std::string& path, const Image& image, bool full_float) {
-  const std::string tmp = temporary_name(path);
+  TemporaryFile tmp(path);
   try {
     const Imf::PixelType type = full_float ? Imf::FLOAT : Imf::HALF;
     Imf::Header header(image.width, image.height);
     for (const char* c : {"R", "G", "B"}) header.channels().insert(c, Imf::Channel(type));
-    Imf::OutputFile file(tmp.c_str(), header);
+    Imf::OutputFile file(tmp.name().c_str(), header);
     Imf::FrameBuffer buffer;
     std::vector<Imath::half> halves;  // the pixels rounded to half, when the channels are half
     const char* base = reinterpret_cast<const char*>(image.pixels.data());
@@ -117,18 +107,16 @@ void write_exr(const std::string& path, const Image& image, bool full_float) {
     file.setFrameBuffer(buffer);
     file.writePixels(image.height);
   } catch (const std::exception& e) {
-    std::error_code ec;
-    std::filesystem::remove(tmp, ec);
     throw Error(path, std::string("cannot write the OpenEXR file: ") + e.what());
   }
-  rename_into_place(tmp, path);
+  tmp.commit();
 }
 
 // PFM: "PF", width and height, a negative scale for little-endian, then float RGB rows from
 // the bottom row up.
 std::string pfm_bytes(const Image& image) {
-  std::string out = "PF\n" + std::to_string(image.width) + " " + std::to_string(image.height) +
-                    "\n-1.0\n";
+  std::string out =
+      "PF\n" + std::to_string(image.width) + " " + std::to_string(image.height) + "\n-1.0\n";
   const std::size_t header = out.size();
   out.resize(header + image.pixels.size() * 12);
   char* p = out.data() + header;
@@ -156,21 +144,6 @@ void write_image(const std::string& path, const Image& image, const ImageWriteOp
     case ImageFormat::pfm:
       return write_file_atomically(path, pfm_bytes(image));
   }
-}
-
-void write_file_atomically(const std::string& path, const std::string& bytes) {
-  const std::string tmp = temporary_name(path);
-  {
-    std::ofstream out(tmp, std::ios::binary);
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    out.close();
-    if (!out) {
-      std::error_code ec;
-      std::filesystem::remove(tmp, ec);
-      throw Error(path, "cannot write the file (does the folder exist and is it writable?)");
-    }
-  }
-  rename_into_place(tmp, path);
 }
 
 }  // namespace splitray

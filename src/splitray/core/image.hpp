@@ -4,6 +4,7 @@
 #include <string_view>
 #include <vector>
 
+#include "splitray/core/output_file.hpp"  // write_file_atomically
 #include "splitray/core/vec.hpp"
 
 namespace splitray {
@@ -39,8 +40,5 @@ ImageFormat check_image_path(const std::string& path);
 // Writes `image` in the format of its extension, atomically as write_png.
 void write_image(const std::string& path, const Image& image,
                  const ImageWriteOptions& options = {});
-
-// Writes bytes to `path` atomically (temporary file in the same folder, then rename).
-void write_file_atomically(const std::string& path, const std::string& bytes);
 
 }  // namespace splitray

@@ -20,7 +20,13 @@ namespace {
 
 constexpr std::size_t kMaxCount = std::size_t{1} << 26;  // of any list in one statement
 constexpr std::size_t kMaxTriangles = std::size_t{1} << 28;
+// Limits against hostile scenes: includes nested without end (a cycle), a file that includes
+// itself twice per level (2^depth files), and `x { ... }` blocks nested deep enough to
+// overflow the parser's stack. BART's largest scene (robots) reads about 500 files, 3 MB.
 constexpr int kMaxIncludeDepth = 32;
+constexpr std::size_t kMaxIncludedFiles = 10'000;                  // in all, repeats counted
+constexpr std::size_t kMaxIncludedBytes = std::size_t{256} << 20;  // 256 MiB in all
+constexpr int kMaxBlockDepth = 256;
 constexpr int kConeSegments = 16;
 constexpr int kSphereRings = 12, kSphereSegments = 24;
 
@@ -175,7 +181,10 @@ namespace {
 // Tokens of one file with line numbers; `%` and `#` start a comment to the end of the line.
 class Lexer {
  public:
-  Lexer(std::string path, std::string text) : path_(std::move(path)), text_(std::move(text)) {}
+  // `quote`: errors may quote the file's words. Not for included files: an include may name
+  // any file on the machine, and an error must not show its content.
+  Lexer(std::string path, std::string text, bool quote)
+      : path_(std::move(path)), text_(std::move(text)), quote_(quote) {}
 
   bool next(std::string& token) {
     skip();
@@ -217,7 +226,7 @@ class Lexer {
     char* end = nullptr;
     const double v = std::strtod(t.c_str(), &end);
     if (t.empty() || end != t.c_str() + t.size())
-      fail("'" + t + "' is not a number (" + what + ")");
+      fail(shown(t) + " is not a number (" + what + ")");
     if (!std::isfinite(v)) fail(std::string("a non-finite ") + what);
     return v;
   }
@@ -236,6 +245,10 @@ class Lexer {
     throw Error(path_ + ":" + std::to_string(token_line_), problem);
   }
   const std::string& path() const { return path_; }
+  // A word of the file for an error message: quoted (cut to 40 characters), or not shown.
+  std::string shown(const std::string& word) const {
+    return quote_ ? "'" + word.substr(0, 40) + "'" : "a word (not shown: an included file)";
+  }
 
  private:
   void skip() {
@@ -254,6 +267,7 @@ class Lexer {
     }
   }
   std::string path_, text_;
+  bool quote_ = true;
   std::size_t pos_ = 0, line_ = 1, token_line_ = 1;
 };
 
@@ -262,9 +276,18 @@ class Parser {
   Parser(AffScene::Data& data, AffAnimation& animation) : data_(data), animation_(animation) {}
 
   void parse_file(const std::string& path, int node, int depth) {
-    if (depth > kMaxIncludeDepth) throw Error(path, "includes nested deeper than 32 (a cycle?)");
+    if (depth == 0) {
+      std::error_code ec;
+      root_ = std::filesystem::weakly_canonical(std::filesystem::absolute(path), ec).parent_path();
+    }
     const Bytes bytes = read_maybe_gzipped(path);
-    Lexer lex(path, std::string(bytes.begin(), bytes.end()));
+    if (depth > 0) {
+      bytes_ += bytes.size();
+      if (bytes_ > kMaxIncludedBytes)
+        throw Error(path, "the included files hold more than the limit of " +
+                              std::to_string(kMaxIncludedBytes >> 20) + " MiB in all");
+    }
+    Lexer lex(path, std::string(bytes.begin(), bytes.end()), depth == 0);
     parse_block(lex, node, depth, false);
   }
 
@@ -288,6 +311,34 @@ class Parser {
       statement(lex, t, node, depth);
     }
     if (braced) lex.fail("the file ends inside a '{' block (missing '}')");
+  }
+
+  // The block of the transform node just added, nested one level deeper.
+  void nested_block(Lexer& lex, int depth) {
+    if (++blocks_ > kMaxBlockDepth)
+      lex.fail("transform blocks nested deeper than the limit of " +
+               std::to_string(kMaxBlockDepth) + " levels");
+    parse_block(lex, static_cast<int>(data_.nodes.size() - 1), depth, true);
+    --blocks_;
+  }
+
+  // The limits of includes, and that an include stays inside the scene's folder (it may not
+  // read other files of the machine: ../../etc/passwd, an absolute path, a link out).
+  void check_include(Lexer& lex, const std::string& file, const std::string& included, int depth) {
+    if (depth + 1 > kMaxIncludeDepth)
+      lex.fail("includes nested deeper than the limit of " + std::to_string(kMaxIncludeDepth) +
+               " levels (a file that includes itself?)");
+    if (++files_ > kMaxIncludedFiles)
+      lex.fail("more than the limit of " + std::to_string(kMaxIncludedFiles) +
+               " included files in all (files that include each other repeatedly?)");
+    std::error_code ec;
+    const std::filesystem::path resolved =
+        std::filesystem::weakly_canonical(std::filesystem::absolute(included), ec);
+    const auto [end, ignored] =
+        std::mismatch(root_.begin(), root_.end(), resolved.begin(), resolved.end());
+    if (ec || end != root_.end())
+      lex.fail("the include " + lex.shown(file) + " lies outside the scene's folder " +
+               root_.string() + "; refusing to read it");
   }
 
   void expect_open(Lexer& lex) {
@@ -316,7 +367,9 @@ class Parser {
       lex.number("detail level");
       const std::string file = lex.word("include file name");
       const std::filesystem::path base = std::filesystem::path(lex.path()).parent_path();
-      return parse_file((base / file).string(), node, depth + 1);
+      const std::string included = (base / file).string();
+      check_include(lex, file, included, depth);
+      return parse_file(included, node, depth + 1);
     }
     if (t == "p" || t == "pp") return polygon(lex, node, t == "pp");
     if (t == "tt" || t == "ttp") {
@@ -344,7 +397,7 @@ class Parser {
       n.fixed = trs({tr[0], tr[1], tr[2]}, axis_angle(axis[0], axis[1], axis[2], angle),
                     {s[0], s[1], s[2]});
       data_.nodes.push_back(n);
-      return parse_block(lex, static_cast<int>(data_.nodes.size() - 1), depth, true);
+      return nested_block(lex, depth);
     }
     if (t == "x") {
       const std::string name = lex.word("transform name");
@@ -353,10 +406,10 @@ class Parser {
       n.parent = node;
       n.animation = name;
       data_.nodes.push_back(n);
-      return parse_block(lex, static_cast<int>(data_.nodes.size() - 1), depth, true);
+      return nested_block(lex, depth);
     }
     if (t == "{") lex.fail("'{' without a transform before it");
-    lex.fail("unknown statement '" + t.substr(0, 40) + "'");
+    lex.fail("unknown statement " + lex.shown(t));
   }
 
   void skip_numbers(Lexer& lex, int n, const char* what) {
@@ -521,8 +574,8 @@ class Parser {
         }
         return;
       } else {
-        lex.fail("unknown mesh section '" + w.substr(0, 40) +
-                 "' (vertices, normals, texturecoords, triangles)");
+        lex.fail("unknown mesh section " + lex.shown(w) +
+                 " (vertices, normals, texturecoords, triangles)");
       }
     }
   }
@@ -607,13 +660,16 @@ class Parser {
             for (double& c : q) c = -c;
         }
       } else {
-        lex.fail("unknown key-frame track '" + w.substr(0, 40) + "' (transl, rot, scale)");
+        lex.fail("unknown key-frame track " + lex.shown(w) + " (transl, rot, scale)");
       }
     }
     data_.keyframes[name] = std::move(k);
   }
 
   AffScene::Data& data_;
+  std::filesystem::path root_;  // the folder of the scene: includes stay inside it
+  std::size_t files_ = 0, bytes_ = 0;
+  int blocks_ = 0;
   AffAnimation& animation_;
 };
 

@@ -1,5 +1,6 @@
 #include "splitray/io/assimp_buffer_io.hpp"
 
+#include <algorithm>
 #include <assimp/IOStream.hpp>
 #include <cstring>
 #include <filesystem>
@@ -56,13 +57,31 @@ bool is_regular_file(const char* file) {
 
 }  // namespace
 
+BufferIOSystem::BufferIOSystem(std::string name, std::span<const unsigned char> bytes,
+                               std::string root)
+    : name_(std::move(name)), bytes_(bytes) {
+  std::error_code ec;
+  root_ = std::filesystem::weakly_canonical(std::filesystem::absolute(root), ec);
+}
+
+bool BufferIOSystem::inside_root(const char* file) const {
+  std::error_code ec;
+  const std::filesystem::path resolved =
+      std::filesystem::weakly_canonical(std::filesystem::absolute(file), ec);
+  const auto [end, ignored] =
+      std::mismatch(root_.begin(), root_.end(), resolved.begin(), resolved.end());
+  if (!ec && !root_.empty() && end == root_.end()) return true;
+  if (refused_.empty()) refused_ = file;
+  return false;
+}
+
 bool BufferIOSystem::Exists(const char* file) const {
-  return name_ == file || is_regular_file(file);
+  return name_ == file || (inside_root(file) && is_regular_file(file));
 }
 
 Assimp::IOStream* BufferIOSystem::Open(const char* file, const char* mode) {
   if (name_ == file) return new BufferStream(bytes_);
-  if (std::strchr(mode, 'w') || !is_regular_file(file)) return nullptr;
+  if (std::strchr(mode, 'w') || !inside_root(file) || !is_regular_file(file)) return nullptr;
   return DefaultIOSystem::Open(file, mode);
 }
 

@@ -31,7 +31,8 @@ void check_index(std::string_view text, Counter& counter, const std::string& whe
     throw Error(at(where, line),
                 "face refers to " + std::string(counter.what) + " 0, but OBJ indices start at 1");
   if (*value < 0) {
-    if (static_cast<std::size_t>(-*value) > counter.defined)
+    // Negated in unsigned arithmetic: -INT64_MIN does not fit an int64_t.
+    if (std::uint64_t{0} - static_cast<std::uint64_t>(*value) > counter.defined)
       throw Error(at(where, line), "face refers to " + std::string(counter.what) + " " +
                                        std::to_string(*value) + " (relative) but only " +
                                        std::to_string(counter.defined) + " are defined before it");

@@ -2,6 +2,8 @@
 // the data must hold every element the header declares (binary: byte-exact walk; ASCII:
 // token walk) and every face index must name an existing vertex.
 #include <bit>
+#include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <string>
 #include <vector>
@@ -154,6 +156,15 @@ Header parse_header(std::string_view text, const std::string& where) {
   return h;
 }
 
+// A number of the file for a message: whole numbers as integers, anything else (fractions,
+// values beyond 64 bits, NaN) as written by %g; never a cast of an out-of-range double.
+std::string number_text(double v) {
+  if (v == std::floor(v) && std::fabs(v) < 9.0e15) return std::to_string(std::int64_t(v));
+  char text[32];
+  std::snprintf(text, sizeof text, "%g", v);
+  return text;
+}
+
 struct FaceCheck {
   std::uint64_t vertices = 0;
   std::size_t triangles = 0;
@@ -162,14 +173,17 @@ struct FaceCheck {
   void corners(std::uint64_t face, double n) const {
     if (n < 3)
       throw Error(
-          where, "PLY face " + std::to_string(face) + " has " + std::to_string(std::int64_t(n)) +
+          where, "PLY face " + std::to_string(face) + " has " + number_text(n) +
                      " vertices; a face needs at least 3 (do the header's counts match the data?)");
   }
   void index(std::uint64_t face, double i) const {
     if (!(i >= 0 && i < double(vertices)))
       throw Error(where, "PLY face " + std::to_string(face) + " refers to vertex " +
-                             std::to_string(std::int64_t(i)) + " but there are only " +
-                             std::to_string(vertices) + " vertices (index out of range)");
+                             number_text(i) + " but there are only " + std::to_string(vertices) +
+                             " vertices (index out of range)");
+    if (i != std::floor(i))
+      throw Error(where, "PLY face " + std::to_string(face) + " refers to vertex " +
+                             number_text(i) + ": a vertex index must be a whole number");
   }
 };
 
@@ -245,7 +259,9 @@ void walk_ascii(const Header& h, std::string_view data, FaceCheck& faces,
           continue;
         }
         const double n = next(e, item);
-        if (!(n >= 0) || n != static_cast<double>(static_cast<std::uint64_t>(n)))
+        // Below 2^64 before the cast (a cast of a larger double is undefined).
+        if (!(n >= 0 && n < 18446744073709551616.0) ||
+            n != static_cast<double>(static_cast<std::uint64_t>(n)))
           throw Error(where, "PLY '" + e.name + "' " + std::to_string(item) +
                                  " has an invalid list length");
         const bool is_face = is_face_index_list(e, p);

@@ -5,6 +5,7 @@ namespace splitray {
 std::optional<std::size_t> check_mesh_format(std::span<const unsigned char> bytes,
                                              const std::string& extension,
                                              const std::string& where) {
+  check_content_matches_name(bytes, extension, where);
   if (extension == "obj") return check_obj(bytes, where);
   if (extension == "ply") return check_ply(bytes, where);
   if (extension == "stl") return check_stl(bytes, where);

@@ -22,7 +22,19 @@ std::optional<std::size_t> check_gltf(std::span<const unsigned char> bytes,
 // Rejects what makes assimp's COLLADA reader loop, overallocate or recurse; counts nothing.
 void check_dae(std::span<const unsigned char> bytes, const std::string& where);
 
-// The check for `extension` (lower case, no dot), or nothing for formats without one.
+// The format a file's content shows by its signature (io/detect_format.cpp): "gzip", "glb",
+// "gltf" (a JSON object), "ply", "md2", "stl" (ASCII 'solid' or the binary size), "dae",
+// "off" (its header keyword); "" for content without one (OBJ, OFF without a keyword, ...).
+std::string detect_mesh_format(std::span<const unsigned char> bytes);
+// "PLY (.ply)", for messages.
+std::string format_name(const std::string& format);
+// Error(where, ...) naming both formats when the content shows a format other than the
+// extension's (gltf and glb are one family), or when a .gltf/.glb file shows no glTF at all.
+void check_content_matches_name(std::span<const unsigned char> bytes, const std::string& extension,
+                                const std::string& where);
+
+// The check for `extension` (lower case, no dot), or nothing for formats without one; first
+// check_content_matches_name, so that the name cannot pick weaker checks than the content's.
 std::optional<std::size_t> check_mesh_format(std::span<const unsigned char> bytes,
                                              const std::string& extension,
                                              const std::string& where);

@@ -267,10 +267,28 @@ Mesh load_mesh(const std::string& path, const MeshLoadOptions& options) {
   // assimp sees the content under the name without .gz: the format comes from the inner
   // extension and referenced files resolve beside the original.
   const std::string name = has_gz_suffix(path) ? path.substr(0, path.size() - 3) : path;
-  importer.SetIOHandler(new BufferIOSystem(name, bytes));
+  const std::string folder = std::filesystem::path(path).parent_path().string();
+  auto* io = new BufferIOSystem(
+      name, bytes,
+      options.references_root.empty() ? (folder.empty() ? "." : folder) : options.references_root);
+  importer.SetIOHandler(io);  // owned by the importer
   importer.SetPropertyBool(AI_CONFIG_IMPORT_NO_SKELETON_MESHES, true);
+  // A refused reference (outside the folder) is named, whatever assimp made of its absence.
+  const auto check_references = [&] {
+    if (!io->refused().empty())
+      throw Error(path, "refers to the file " + io->refused() +
+                            ", which lies outside the folder of the model; refusing to read it");
+  };
 
-  const aiScene* scene = import(importer, name, aiProcess_ValidateDataStructure, path, false);
+  const aiScene* scene = [&] {
+    try {
+      return import(importer, name, aiProcess_ValidateDataStructure, path, false);
+    } catch (const Error&) {
+      check_references();
+      throw;
+    }
+  }();
+  check_references();
   if ((scene->mFlags & AI_SCENE_FLAGS_INCOMPLETE) || scene->mNumMeshes == 0)
     throw Error(path, "the file holds no meshes");
   check_finite(*scene, path);
@@ -294,7 +312,6 @@ Mesh load_mesh(const std::string& path, const MeshLoadOptions& options) {
     mesh.uvs = merger.uvs();
     if (has_own_materials(*scene)) {
       std::vector<std::string> ignored;
-      const std::string folder = std::filesystem::path(path).parent_path().string();
       const std::vector<Material> all =
           convert_materials(*scene, folder, path, options.warnings ? *options.warnings : ignored);
       // Only the materials faces use (assimp adds a stand-in first, files list unused ones),

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "splitray/core/errors.hpp"
+#include "splitray/core/output_file.hpp"
 
 namespace splitray {
 
@@ -31,24 +32,17 @@ std::string find_plot_script(const std::string& name) {
 void run_plot_script(const std::string& name, const std::string& png, const std::string& data) {
   const std::string script = find_plot_script(name);
   // The temporary keeps the .png ending: matplotlib picks the format from it.
-  const std::string tmp = png + ".tmp." + std::to_string(::getpid()) + ".png";
+  TemporaryFile tmp(png, ".png");
   const auto quoted = [](const std::string& s) {
     std::string q = "'";
     for (const char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
     return q + "'";
   };
   const std::string command =
-      "/usr/bin/python3 " + quoted(script) + " --out " + quoted(tmp) + " " + quoted(data);
-  std::error_code ec;
-  if (std::system(command.c_str()) != 0) {
-    fs::remove(tmp, ec);
+      "/usr/bin/python3 " + quoted(script) + " --out " + quoted(tmp.name()) + " " + quoted(data);
+  if (std::system(command.c_str()) != 0)
     throw Error("--plot " + png, "the plotting script " + script + " failed");
-  }
-  fs::rename(tmp, png, ec);
-  if (ec) {
-    fs::remove(tmp, ec);
-    throw Error("--plot " + png, "cannot write the file (rename failed)");
-  }
+  tmp.commit();
 }
 
 }  // namespace splitray

@@ -1,5 +1,8 @@
 #include "splitray/io/read_file.hpp"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
 #include <zlib.h>
 
 #include <algorithm>
@@ -7,9 +10,9 @@
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 
 #include "splitray/core/errors.hpp"
+#include "splitray/core/output_file.hpp"
 
 namespace splitray {
 namespace {
@@ -25,28 +28,78 @@ std::string lower(std::string s) {
   return s;
 }
 
+// An open regular file, closed by the destructor.
+struct RegularFile {
+  int fd = -1;
+  std::uintmax_t size = 0;
+  ~RegularFile() {
+    if (fd >= 0) ::close(fd);
+  }
+};
+
+void open_regular(const std::string& path, RegularFile& file, bool note = true) {
+  // O_NONBLOCK: opening a FIFO must not wait for a writer; fstat of the open file then
+  // decides, so that a name swapped between a check and the open cannot slip through.
+  file.fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
+  if (file.fd < 0) {
+    const int error = errno;
+    if (error == ENOENT) throw Error(path, "no such file");
+    throw Error(path, std::string("cannot open the file: ") + std::strerror(error));
+  }
+  struct stat st {};
+  if (::fstat(file.fd, &st) != 0)
+    throw Error(path, std::string("cannot access the file: ") + std::strerror(errno));
+  if (S_ISDIR(st.st_mode)) throw Error(path, "is a directory, not a file");
+  if (!S_ISREG(st.st_mode))
+    throw Error(path, std::string("is not a regular file (it is ") +
+                          (S_ISFIFO(st.st_mode)   ? "a FIFO"
+                           : S_ISSOCK(st.st_mode) ? "a socket"
+                                                  : "a device") +
+                          "); splitray reads only regular files");
+  if (note) note_input_file(path, st.st_dev, st.st_ino);
+  file.size = static_cast<std::uintmax_t>(st.st_size);
+  if (file.size == 0) throw Error(path, "the file is empty");
+}
+
+// Up to bytes.size() bytes from the start of the file; how many it read.
+std::size_t read_into(const std::string& path, const RegularFile& file, Bytes& bytes) {
+  std::size_t done = 0;
+  while (done < bytes.size()) {
+    const ssize_t n = ::read(file.fd, bytes.data() + done, bytes.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) throw Error(path, std::string("read error: ") + std::strerror(errno));
+    if (n == 0) break;
+    done += static_cast<std::size_t>(n);
+  }
+  return done;
+}
+
+Bytes read_whole(const std::string& path, std::size_t max_bytes, bool note) {
+  RegularFile file;
+  open_regular(path, file, note);
+  if (file.size > max_bytes)
+    throw Error(path, "the file is larger than the limit of " + size_text(max_bytes));
+  Bytes bytes(static_cast<std::size_t>(file.size));
+  if (read_into(path, file, bytes) != file.size)
+    throw Error(path, "the file could not be read completely (it changed while reading?)");
+  return bytes;
+}
+
 }  // namespace
 
 Bytes read_file(const std::string& path, std::size_t max_bytes) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  const fs::file_status status = fs::status(path, ec);
-  if (status.type() == fs::file_type::not_found) throw Error(path, "no such file");
-  if (ec) throw Error(path, "cannot access the file: " + ec.message());
-  if (status.type() == fs::file_type::directory) throw Error(path, "is a directory, not a file");
-  if (status.type() != fs::file_type::regular) throw Error(path, "is not a regular file");
-  const std::uintmax_t size = fs::file_size(path, ec);
-  if (ec) throw Error(path, "cannot read the file size: " + ec.message());
-  if (size == 0) throw Error(path, "the file is empty");
-  if (size > max_bytes)
-    throw Error(path, "the file is larger than the limit of " + size_text(max_bytes));
+  return read_whole(path, max_bytes, true);
+}
 
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path, std::string("cannot open the file: ") + std::strerror(errno));
-  Bytes bytes(static_cast<std::size_t>(size));
-  in.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(size));
-  if (static_cast<std::uintmax_t>(in.gcount()) != size)
-    throw Error(path, "the file could not be read completely (it changed while reading?)");
+Bytes read_previous_output(const std::string& path, std::size_t max_bytes) {
+  return read_whole(path, max_bytes, false);
+}
+
+Bytes read_file_head(const std::string& path, std::size_t max_bytes) {
+  RegularFile file;
+  open_regular(path, file);
+  Bytes bytes(static_cast<std::size_t>(std::min<std::uintmax_t>(file.size, max_bytes)));
+  bytes.resize(read_into(path, file, bytes));
   return bytes;
 }
 

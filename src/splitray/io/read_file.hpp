@@ -19,8 +19,15 @@ using Bytes = std::vector<unsigned char>;
 inline constexpr std::size_t kMaxInputBytes = std::size_t{2} << 30;
 inline std::size_t input_limit() { return std::min(kMaxInputBytes, memory_budget() / 8); }
 
-// The bytes of a regular, non-empty file of at most max_bytes.
+// The bytes of a regular, non-empty file of at most max_bytes. Anything else (a FIFO, a
+// device, a folder) is an Error naming the file, without blocking; the file is noted as an
+// input (core/output_file.hpp), so that no output can replace it.
 Bytes read_file(const std::string& path, std::size_t max_bytes = input_limit());
+// The first max_bytes (or fewer) of a file read_file would accept, for a look at a header.
+Bytes read_file_head(const std::string& path, std::size_t max_bytes);
+// read_file for a file splitray wrote before and may write again (animate --resume looks at
+// the frames of an earlier run): the same checks, but it is not noted as an input.
+Bytes read_previous_output(const std::string& path, std::size_t max_bytes = input_limit());
 
 // The content of gzip data (one or more members), at most max_bytes of it; `where` names
 // the file in error messages.

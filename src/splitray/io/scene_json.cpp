@@ -114,6 +114,9 @@ class Reader {
     if (!j.is_string()) wrong_type(j, where, "a string");
     const std::string s = j.get<std::string>();
     if (s.empty()) fail(where, "must not be empty");
+    // A file name "ok.obj\u0000x" would open ok.obj: no NUL in any string of a scene.
+    if (s.find('\0') != std::string::npos)
+      fail(where, "'" + s + "' contains a NUL character (\\u0000)");
     return s;
   }
   bool boolean(const json& j, const std::string& where) const {

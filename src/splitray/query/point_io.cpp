@@ -5,10 +5,10 @@
 #include <charconv>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <sstream>
 
 #include "splitray/core/errors.hpp"
+#include "splitray/io/read_file.hpp"
 
 namespace splitray {
 namespace {
@@ -19,13 +19,10 @@ std::string lower_extension(const std::string& path) {
   return ext;
 }
 
-std::string read_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path, "cannot open the file");
-  std::ostringstream bytes;
-  bytes << in.rdbuf();
-  if (in.bad()) throw Error(path, "read error");
-  return std::move(bytes).str();
+// The whole file through io's reader (regular files only, size limit, noted as an input).
+std::string read_text_file(const std::string& path) {
+  const Bytes bytes = read_file(path);
+  return std::string(bytes.begin(), bytes.end());
 }
 
 // ---- PLY ----------------------------------------------------------------------------------
@@ -181,7 +178,7 @@ bool ply_declares_faces(const PlyHeader& header) {
 }  // namespace
 
 std::vector<Vec3> load_ply_points(const std::string& path) {
-  const std::string data = read_file(path);
+  const std::string data = read_text_file(path);
   const PlyHeader header = parse_ply_header(path, data);
   const auto vertex_it =
       std::ranges::find(header.elements, std::string("vertex"), &PlyElement::name);
@@ -253,12 +250,15 @@ std::vector<Vec3> load_ply_points(const std::string& path) {
     for (const PlyElement& element : header.elements) {
       const bool is_vertex = &element == &*vertex_it;
       bool fixed = std::ranges::none_of(element.properties, &PlyProperty::list);
-      std::size_t stride = 0;
-      for (const PlyProperty& p : element.properties) stride += p.size;
-      if (fixed && stride > 0 && element.count > (data.size() - pos) / stride)
+      std::size_t stride = 0;  // bytes of an entry; with lists, the least an entry can take
+      for (const PlyProperty& p : element.properties) stride += p.list ? p.count_size : p.size;
+      if (stride == 0 && element.count > 0)
+        throw Error(path, "element '" + element.name + "' has no properties");
+      if (stride > 0 && element.count > (data.size() - pos) / stride)
         throw Error(path, "element '" + element.name + "' declares " +
-                              std::to_string(element.count) + " entries, more than the file holds");
-      if (is_vertex) points.reserve(element.count);
+                              std::to_string(element.count) + " entries, more than the file " +
+                              (fixed ? "holds" : "can hold"));
+      if (is_vertex) points.reserve(element.count);  // at most the file's size / stride
       for (std::uint64_t i = 0; i < element.count; ++i) {
         double values[3] = {0, 0, 0};
         for (std::size_t p = 0; p < element.properties.size(); ++p) {
@@ -295,7 +295,7 @@ std::vector<Vec3> load_ply_points(const std::string& path) {
 }
 
 std::vector<Vec3> load_xyz_points(const std::string& path) {
-  const std::string data = read_file(path);
+  const std::string data = read_text_file(path);
   std::vector<Vec3> points;
   std::size_t pos = 0, line_number = 0;
   while (pos < data.size()) {
@@ -333,16 +333,12 @@ bool is_point_file(const std::string& path) {
   const std::string ext = lower_extension(path);
   if (ext == ".xyz" || ext == ".txt" || ext == ".pts") return true;
   if (ext != ".ply") return false;
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path, "cannot open the file");
-  std::string head(1 << 20, '\0');  // headers are short; the body is not needed here
-  in.read(head.data(), static_cast<std::streamsize>(head.size()));
-  head.resize(static_cast<std::size_t>(in.gcount()));
+  const Bytes bytes = read_file_head(path, 1 << 20);  // headers are short; no body needed
+  const std::string head(bytes.begin(), bytes.end());
   return !ply_declares_faces(parse_ply_header(path, head));
 }
 
 std::vector<Vec3> load_points(const std::string& path) {
-  if (!std::filesystem::exists(path)) throw Error(path, "no such file");
   return lower_extension(path) == ".ply" ? load_ply_points(path) : load_xyz_points(path);
 }
 
