@@ -100,8 +100,10 @@ def main():
                 "identical_images": all(same for _, same in runs),
             })
     single = rows[0]["wall_ms"]
+    one = next(r for r in rows if r["ranks"] == 1)["wall_ms"]
     for row in rows:
         row["speedup_vs_single"] = single / row["wall_ms"]
+        row["speedup_vs_one_rank"] = one / row["wall_ms"]
     # Projection: every frame is independent work of about the measured compute time; rank 0
     # hands out runs and writes every image. T(N) = frames * compute / N + frames * (comm +
     # write) per frame, with comm scaled from loopback to 10 Gbit/s for an image of W*H*3 bytes.
@@ -134,11 +136,12 @@ def main():
     lines = [f"# splitray animate across ranks ({result['cpu']}, {cores} cores)", "",
              f"{options.frames} frames of {result['sequence']} at {options.width}x{options.height}, "
              f"one thread per rank, medians of {options.runs} runs.", "",
-             "| ranks | frames/s | speedup vs single process | comm + assembly | share | images identical |",
-             "|---|---|---|---|---|---|"]
+             "| ranks | frames/s | vs single process | vs 1 rank | comm + assembly | share | images identical |",
+             "|---|---|---|---|---|---|---|"]
     for row in rows:
         name = f"{row['ranks']}" + (" (over-subscribed)" if row["oversubscribed"] else "")
         lines.append(f"| {name} | {row['frames_per_s']:.2f} | {row['speedup_vs_single']:.2f}x | "
+                     f"{row['speedup_vs_one_rank']:.2f}x | "
                      f"{row['comm_and_assembly_ms']:.0f} ms | {100 * row['comm_share']:.1f}% | "
                      f"{'yes' if row['identical_images'] else 'NO'} |")
     lines += ["", "Projection: " + result["projection_model"], "",

@@ -40,10 +40,9 @@ std::vector<unsigned char> Image::to_srgb8() const {
   return out;
 }
 
-void write_png(const std::string& path, const Image& image) {
-  if (image.width <= 0 || image.height <= 0) throw Error(path, "cannot write an empty image");
+std::string encode_png(const Image& image, const std::string& where) {
+  if (image.width <= 0 || image.height <= 0) throw Error(where, "cannot write an empty image");
   const std::vector<unsigned char> bytes = image.to_srgb8();
-  // Encoded in memory, then written like every other output (core/output_file.hpp).
   std::string png;
   const auto append = [](void* context, void* data, int size) {
     static_cast<std::string*>(context)->append(static_cast<const char*>(data),
@@ -51,8 +50,13 @@ void write_png(const std::string& path, const Image& image) {
   };
   if (!stbi_write_png_to_func(append, &png, image.width, image.height, 3, bytes.data(),
                               image.width * 3))
-    throw Error(path, "cannot encode the PNG image");
-  write_file_atomically(path, png);
+    throw Error(where, "cannot encode the PNG image");
+  return png;
+}
+
+void write_png(const std::string& path, const Image& image) {
+  // Encoded in memory, then written like every other output (core/output_file.hpp).
+  write_file_atomically(path, encode_png(image, path));
 }
 
 ImageFormat check_image_path(const std::string& path) {

@@ -25,6 +25,9 @@ struct Image {
 // Writes the image as PNG through a temporary file renamed into place, so that a failed
 // write leaves no partial file. Throws Error(path, ...) on failure.
 void write_png(const std::string& path, const Image& image);
+// The bytes write_png writes (8-bit sRGB PNG), for a program that encodes where it renders and
+// writes elsewhere (mpirun animate: every rank encodes its own frames). `where` names the image.
+std::string encode_png(const Image& image, const std::string& where);
 
 // The image files splitray writes, by extension (any case): .png 8-bit sRGB (clamped),
 // .exr OpenEXR with linear RGB as half (default) or 32-bit float channels, .pfm the portable
