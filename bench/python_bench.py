@@ -16,6 +16,8 @@ import os
 import pathlib
 import platform
 import statistics
+import subprocess
+import tempfile
 import time
 
 import numpy as np
@@ -24,6 +26,7 @@ from scipy.spatial import cKDTree
 import splitray
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
+BINARY = ROOT / "build" / "apps" / "splitray" / "splitray"
 
 
 def cpu_model():
@@ -92,6 +95,15 @@ def bench_rays(path, rays_per_set, runs, rng):
             row["open3d_hits"] = int(np.isfinite(hits["t_hit"].numpy()).sum())
             row["open3d_valid"] = row["open3d_hits"] == row["bvh_hits"]
         row["bvh_vs_embree"] = row["bvh_mrays_s"] / row["embree_mrays_s"]
+        # The same rays through the C++ batched call (`splitray trace --rays-in`, tracing timed
+        # alone, median of as many repeats): what the Python layer costs.
+        with tempfile.TemporaryDirectory() as work:
+            npy = pathlib.Path(work) / "rays.npy"
+            np.save(npy, rays)
+            done = subprocess.run([str(BINARY), "trace", str(path), "--accel", "bvh", "--rays-in", str(npy),
+                                   "--repeat", str(runs), "--json"], capture_output=True, text=True, check=True)
+        row["cpp_bvh_mrays_s"] = json.loads(done.stdout)["mrays_per_s"]
+        row["python_vs_cpp"] = row["bvh_mrays_s"] / row["cpp_bvh_mrays_s"]
         rows.append(row)
     return rows
 
@@ -143,12 +155,13 @@ def main():
     tmp.write_text(json.dumps(report, indent=2) + "\n")
     tmp.replace(out.with_suffix(".json"))
     lines = [f"# splitray from Python ({report['cpu']}, {report['cores']} cores, median of {args.runs} runs)", "",
-             "| mesh | triangles | rays | bvh Mrays/s | kd Mrays/s | embree Mrays/s | bvh / embree | open3d Mrays/s (hits) |",
-             "|---|---:|---|---:|---:|---:|---:|---:|"]
+             "| mesh | triangles | rays | bvh Mrays/s | kd Mrays/s | embree Mrays/s | bvh / embree | bvh C++ batched Mrays/s | Python / C++ | open3d Mrays/s (hits) |",
+             "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|"]
     for r in report["rays"]:
         o3d_text = f"{r['open3d_mrays_s']:.2f} ({r['open3d_hits']} of {r['bvh_hits']})" if "open3d_hits" in r else "n/a"
         lines.append(f"| {r['mesh']} | {r['triangles']} | {r['rays']} | {r['bvh_mrays_s']:.2f} | {r['kd_mrays_s']:.2f} | "
-                     f"{r['embree_mrays_s']:.2f} | {r['bvh_vs_embree']:.2f} | {o3d_text} |")
+                     f"{r['embree_mrays_s']:.2f} | {r['bvh_vs_embree']:.2f} | {r['cpp_bvh_mrays_s']:.2f} | "
+                     f"{r['python_vs_cpp']:.2f} | {o3d_text} |")
     p = report["points"]
     lines += ["", "| points | queries | build ms (scipy) | k=8 ms (scipy) | k=8 speed-up | ball ms (scipy) | ball speed-up |",
               "|---:|---:|---:|---:|---:|---:|---:|",

@@ -132,17 +132,21 @@ class Scene {
       std::shared_lock lock(mutex_);
       tbb::task_arena(workers).execute([&] {
         const std::vector<Ray> in = to_rays(r, n, 0, kInfinity);
-        std::vector<SurfaceHit> hits(n);
-        scene_->intersect(in, hits);
+        // The structure's batched call, then one pass straight into the output arrays (the
+        // normals of MeshScene::fill_normal, without its intermediate array of SurfaceHits).
+        std::vector<Hit> hits(n);
+        scene_->accel().intersect(in, hits);
+        const MeshBuffers& mesh = scene_->mesh();
         parallel_chunks(n, 4096, [&](std::size_t b, std::size_t e) {
           for (std::size_t i = b; i < e; ++i) {
-            const SurfaceHit& h = hits[i];
+            const Hit& h = hits[i];
             tp[i] = h.t;
             idp[i] = h.prim;
             gp[i] = h.found() ? 0 : kInvalidId;
             uvp[2 * i] = h.found() ? h.u : 0;
             uvp[2 * i + 1] = h.found() ? h.v : 0;
-            const Vec3 unit = normalize(h.ng);  // as `splitray trace --hits-out`
+            const Vec3 ng = h.found() ? mesh.triangle(h.prim).geometric_normal() : Vec3{0, 0, 0};
+            const Vec3 unit = normalize(ng);  // as `splitray trace --hits-out`
             np[3 * i] = unit.x;
             np[3 * i + 1] = unit.y;
             np[3 * i + 2] = unit.z;
