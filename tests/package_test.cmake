@@ -3,6 +3,7 @@
 # vendored horse, and checks that a version the package is not compatible with is refused.
 # and runs examples/python with the installed Python module (when PYTHON is given).
 # Arguments: -DBUILD_DIR=... -DSOURCE_DIR=... -DWORK_DIR=... -DMESH=... [-DPYTHON=... -DPYTHON_DIR=...]
+# [-DSANITIZE_FLAGS="-fsanitize=..." (a sanitized build) -DPYTHON_ENV="VAR=value;..." (for Python)]
 file(REMOVE_RECURSE ${WORK_DIR})
 function(run)
   execute_process(COMMAND ${ARGN} RESULT_VARIABLE code OUTPUT_VARIABLE out ERROR_VARIABLE err)
@@ -12,11 +13,12 @@ function(run)
 endfunction()
 run(${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${WORK_DIR}/prefix)
 run(${CMAKE_COMMAND} -S ${SOURCE_DIR}/examples/cpp -B ${WORK_DIR}/build
-    -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH=${WORK_DIR}/prefix)
+    -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH=${WORK_DIR}/prefix
+    "-DCMAKE_CXX_FLAGS=${SANITIZE_FLAGS}" "-DCMAKE_EXE_LINKER_FLAGS=${SANITIZE_FLAGS}")
 run(${CMAKE_COMMAND} --build ${WORK_DIR}/build)
 run(${WORK_DIR}/build/consumer ${MESH})
 if(PYTHON)
-  run(${CMAKE_COMMAND} -E env PYTHONPATH=${WORK_DIR}/prefix/${PYTHON_DIR}
+  run(${CMAKE_COMMAND} -E env PYTHONPATH=${WORK_DIR}/prefix/${PYTHON_DIR} ${PYTHON_ENV}
       ${PYTHON} ${SOURCE_DIR}/examples/python/cast_rays.py ${MESH})
 endif()
 # find_package(splitray 1.0) must fail: the version file says 0.1.x.
