@@ -325,7 +325,8 @@ TEST(KnnTest, DegenerateInputs) {
   Pcg32 rng(5);
   for (int i = 0; i < 400; ++i) {
     const float scale = i % 2 ? 1e18f : 3e19f;
-    huge.push_back(Vec3(rng.next_float() - 0.5f, rng.next_float() - 0.5f, rng.next_float()) * scale);
+    huge.push_back(Vec3(rng.next_float() - 0.5f, rng.next_float() - 0.5f, rng.next_float()) *
+                   scale);
   }
   const std::vector<Vec3> queries{Vec3(1, 2, 3),    Vec3(0, 0, 0), Vec3(10.5f, 3.25f, 1),
                                   Vec3(-5, 100, 2), huge[7],       Vec3(1e19f, -2e19f, 5e18f)};
@@ -552,7 +553,8 @@ TEST(KnnTest, BrokenPointFilesAreClearErrors) {
       "more than the file holds");
   check("no_magic.ply", "plx\n", "not a PLY file");
   check("header_only.ply",  // no newline after end_header, no body
-        "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
+        "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty "
+        "float z\n"
         "end_header",
         "ends inside element 'vertex'");
   check("no_end.ply", "ply\nformat ascii 1.0\nelement vertex 1\n", "end_header");

@@ -73,7 +73,9 @@ void add_completion_command(CLI::App& app) {
   sub->group("");  // hidden: for the build and for users who want it by hand
   auto shell = std::make_shared<std::string>("bash");
   sub->add_option("SHELL", *shell, "Only bash")->check(CLI::IsMember({"bash"}));
-  sub->callback([&app] { fmt::print("{}", bash_script(app)); });
+  // The callback owns `shell`: the option writes into it when the command line is parsed,
+  // long after this function returned (ASan found the use after free).
+  sub->callback([&app, shell] { fmt::print("{}", bash_script(app)); });
 }
 
 }  // namespace splitray::app

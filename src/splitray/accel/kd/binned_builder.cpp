@@ -61,11 +61,12 @@ class BinnedBuilder {
     part->axis = split.axis;
     part->split = split.position;
     std::uint64_t eb = 0, ea = 0;
+    // Structured bindings captured by copy: clang 14 (the fuzz build) cannot capture them by &.
     tbb::parallel_invoke(
-        [&] {
+        [&, below_cell = below_cell] {
           part->below = build_task(std::move(below), below_cell, below_content, depth + 1, eb);
         },
-        [&] {
+        [&, above_cell = above_cell] {
           part->above = build_task(std::move(above), above_cell, above_content, depth + 1, ea);
         });
     evals += eb + ea;
