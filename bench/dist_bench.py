@@ -16,25 +16,16 @@ import hashlib
 import json
 import os
 import pathlib
-import platform
 import shutil
 import statistics
 import subprocess
 import tempfile
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
+from bench_common import ROOT, cpu_model, project_path
+
 SEQUENCE = ROOT.parent / "shared" / "data" / "anim_horse_collapse" / "frames"
 
 
-def cpu_model():
-    for line in pathlib.Path("/proc/cpuinfo").read_text().splitlines():
-        if line.startswith("model name"):
-            return line.split(":", 1)[1].strip()
-    return platform.processor() or "unknown"
-
-
-def project_path(path):
-    return os.path.relpath(pathlib.Path(path).resolve(), ROOT)
 
 
 def run_animate(binary, ranks, args, out_dir, report):

@@ -14,7 +14,6 @@ import argparse
 import json
 import os
 import pathlib
-import platform
 import statistics
 import subprocess
 import tempfile
@@ -24,21 +23,11 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 import splitray
+from bench_common import ROOT, cpu_model, project_path
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
 BINARY = ROOT / "build" / "apps" / "splitray" / "splitray"
 
 
-def cpu_model():
-    for line in pathlib.Path("/proc/cpuinfo").read_text().splitlines():
-        if line.startswith("model name"):
-            return line.split(":", 1)[1].strip()
-    return platform.processor() or "unknown"
-
-
-def project_path(path):
-    """A path as the project names it: relative to the checkout (../shared/... for shared data)."""
-    return os.path.relpath(pathlib.Path(path).resolve(), ROOT)
 
 
 def median_seconds(call, runs):

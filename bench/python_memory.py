@@ -15,7 +15,8 @@ import pathlib
 import subprocess
 import sys
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
+from bench_common import ROOT, cpu_model, project_path
+
 MESH = ROOT / "data" / "dragon_100k" / "dragon.obj.gz"
 
 CHILD = r"""
@@ -59,10 +60,8 @@ def main():
         if done.returncode != 0:
             raise SystemExit(f"{accel}: {done.stderr}")
         rows.append(json.loads(done.stdout))
-    cpu = next((line.split(":", 1)[1].strip() for line in
-                pathlib.Path("/proc/cpuinfo").read_text().splitlines() if line.startswith("model name")),
-               "unknown")
-    report = {"cpu": cpu, "mesh": os.path.relpath(MESH, ROOT) + " subdivided twice", "rows": rows}
+    cpu = cpu_model()
+    report = {"cpu": cpu, "mesh": project_path(MESH) + " subdivided twice", "rows": rows}
     out = pathlib.Path(options.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.with_suffix(".json").write_text(json.dumps(report, indent=2) + "\n")

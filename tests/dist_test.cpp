@@ -175,6 +175,15 @@ std::string frame_name(int frame) {
   return name;
 }
 
+// The collapsing horse's single-process frames, rendered once for the tests below.
+fs::path reference_frames(const fs::path& dir, const std::string& frames) {
+  const fs::path one = dir / "one";
+  const Outcome single =
+      run_splitray("animate " + frames + kAnimate + " --render " + quote(one.string()), dir);
+  EXPECT_EQ(single.status, 0) << single.err;
+  return one;
+}
+
 }  // namespace
 
 TEST(MpiAnimate, TwoAndThreeRanksWriteTheSingleProcessFrames) {
@@ -182,10 +191,8 @@ TEST(MpiAnimate, TwoAndThreeRanksWriteTheSingleProcessFrames) {
   SPLITRAY_REQUIRE_SHARED(first, kFrames + "/horse-collapse-01.obj.gz");
   const fs::path dir = fresh_dir();
   const std::string frames = quote(fs::path(first).parent_path().string());
-  const fs::path one = dir / "one";
-  const Outcome single =
-      run_splitray("animate " + frames + kAnimate + " --render " + quote(one.string()), dir);
-  ASSERT_EQ(single.status, 0) << single.err;
+  const fs::path one = reference_frames(dir, frames);
+  ASSERT_FALSE(::testing::Test::HasFailure());
   for (const int ranks : {2, 3}) {
     const fs::path out = dir / ("ranks" + std::to_string(ranks));
     const fs::path json = dir / ("ranks" + std::to_string(ranks) + ".json");
@@ -208,25 +215,13 @@ TEST(MpiAnimate, TwoAndThreeRanksWriteTheSingleProcessFrames) {
   fs::remove_all(dir);
 }
 
-namespace {
-
-// The collapsing horse's single-process frames, rendered once for the tests below.
-fs::path reference_frames(const fs::path& dir, const std::string& frames) {
-  const fs::path one = dir / "one";
-  const Outcome single =
-      run_splitray("animate " + frames + kAnimate + " --render " + quote(one.string()), dir);
-  EXPECT_EQ(single.status, 0) << single.err;
-  return one;
-}
-
-}  // namespace
-
 TEST(MpiAnimate, ResumeRendersOnlyTheMissingAndBrokenFrames) {
   REQUIRE_MPI();
   SPLITRAY_REQUIRE_SHARED(first, kFrames + "/horse-collapse-01.obj.gz");
   const fs::path dir = fresh_dir();
   const std::string frames = quote(fs::path(first).parent_path().string());
   const fs::path one = reference_frames(dir, frames);
+  ASSERT_FALSE(::testing::Test::HasFailure());
   // A run that was stopped: frame 1 never written, frame 3 cut off half way.
   const fs::path out = dir / "resumed";
   fs::copy(one, out);
