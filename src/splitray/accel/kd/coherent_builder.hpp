@@ -1,0 +1,56 @@
+#pragma once
+// Coherent kd rebuilds of an animation (issue #20): from the second frame on, the tree of a
+// frame is made from the previous frame's tree and the split predictors' forecasts (paper
+// 000's Kalman or Wiener filters) instead of from scratch. The builder keeps the previous
+// tree's shape, moves its planes to their predicted positions, re-optimises the planes of
+// large nodes locally, distributes the triangles down in one pass per node (no event lists,
+// no full search) and rebuilds from scratch only the subtrees whose SAH cost drifted beyond
+// a tolerance, so the tree's quality cannot decay over a long sequence.
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+
+#include "splitray/accel/kd/kd_accel.hpp"
+#include "splitray/accel/predict/split_predictor.hpp"
+
+namespace splitray {
+
+// What one frame's build did. Node counts are of the finished tree (interior nodes and
+// leaves); times are milliseconds of CPU summed over threads for the parts, wall time for
+// the total.
+struct CoherentFrameStats {
+  bool from_scratch = false;          // the first frame, or a fallback (see reason)
+  std::string reason;                 // why the frame was built from scratch ("" otherwise)
+  std::size_t reused_nodes = 0;       // kept from the previous frame, plane moved as predicted
+  std::size_t reoptimised_nodes = 0;  // kept, plane re-searched locally around the prediction
+  std::size_t rebuilt_nodes = 0;      // made by the from-scratch builder this frame
+  std::size_t rebuilt_subtrees = 0;   // subtrees rebuilt because their cost drifted
+  double predict_ms = 0, distribute_ms = 0, search_ms = 0, rebuild_ms = 0, layout_ms = 0;
+  double total_ms = 0;
+  double sah_cost = 0;  // of the finished tree (sah_cost.hpp), with the config's K_T and K_I
+};
+
+class KdCoherentBuilder {
+ public:
+  // `config.builder` is the from-scratch builder of the first frame and of rebuilt subtrees
+  // (empty: golden).
+  KdCoherentBuilder(const BuildConfig& config, const PredictorConfig& predictor);
+  ~KdCoherentBuilder();
+  KdCoherentBuilder(KdCoherentBuilder&&) noexcept;
+  KdCoherentBuilder& operator=(KdCoherentBuilder&&) noexcept;
+
+  // The tree of the next frame. Throws Error when `triangles` is empty or its count differs
+  // from the previous frame's.
+  std::unique_ptr<KdAccel> next_frame(std::span<const Triangle> triangles,
+                                      CoherentFrameStats& stats);
+  // Forgets the previous frames: the next frame is built from scratch.
+  void reset();
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
+}  // namespace splitray
