@@ -58,15 +58,6 @@ void bin_prims(std::span<const PrimRef> prims, const Aabb& cell, const AxisBins*
   }
 }
 
-enum Side : std::uint8_t { kBelow = 1, kAbove = 2, kBoth = 3 };
-
-Side side_of(const Aabb& b, int axis, float position, bool planar_below) {
-  const float lo = b.lo[axis], hi = b.hi[axis];
-  if (lo == position && hi == position) return planar_below ? kBelow : kAbove;
-  if (lo < position) return hi > position ? kBoth : kBelow;
-  return kAbove;
-}
-
 void count_sides(std::span<const PrimRef> prims, const BinnedSplit& split, std::size_t& below,
                  std::size_t& above) {
   below = above = 0;

@@ -28,6 +28,16 @@ struct BinnedSplit {
   std::uint64_t evals = 0;               // SAH cost evaluations made
 };
 
+// Which child of a split at `position` on `axis` a primitive with (clipped) bounds `b` goes to:
+// straddlers to both, primitives lying in the plane below if `planar_below`.
+enum Side : std::uint8_t { kBelow = 1, kAbove = 2, kBoth = 3 };
+inline Side side_of(const Aabb& b, int axis, float position, bool planar_below) {
+  const float lo = b.lo[axis], hi = b.hi[axis];
+  if (lo == position && hi == position) return planar_below ? kBelow : kAbove;
+  if (lo < position) return hi > position ? kBoth : kBelow;
+  return kAbove;
+}
+
 // The cheapest bin boundary over all axes (ties: lower axis, then lower position), with its
 // exact counts and cost. `parallel` bins and counts large nodes in parallel chunks.
 BinnedSplit find_binned_split(std::span<const PrimRef> prims, const Aabb& cell, const Aabb& content,

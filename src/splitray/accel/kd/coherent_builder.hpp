@@ -18,8 +18,8 @@
 namespace splitray {
 
 // What one frame's build did. Node counts are of the finished tree (interior nodes and
-// leaves); times are milliseconds of CPU summed over threads for the parts, wall time for
-// the total.
+// leaves); the parts' times are CPU milliseconds summed over threads (distribution: the
+// walk's own time less its searches and rebuilds), the total is wall time.
 struct CoherentFrameStats {
   bool from_scratch = false;          // the first frame, or a fallback (see reason)
   std::string reason;                 // why the frame was built from scratch ("" otherwise)
@@ -28,15 +28,31 @@ struct CoherentFrameStats {
   std::size_t rebuilt_nodes = 0;      // made by the from-scratch builder this frame
   std::size_t rebuilt_subtrees = 0;   // subtrees rebuilt because their cost drifted
   double predict_ms = 0, distribute_ms = 0, search_ms = 0, rebuild_ms = 0, layout_ms = 0;
-  double total_ms = 0;
+  double total_ms = 0;  // wall time of the whole frame, layout included
   double sah_cost = 0;  // of the finished tree (sah_cost.hpp), with the config's K_T and K_I
+};
+
+// When a kept part of the tree is made afresh. Defaults measured on the shared sequences (SAH
+// cost within 1-3% of golden's from-scratch trees on horse collapse and MD2 faerie; README).
+struct CoherentConfig {
+  // A kept plane whose own SAH cost (its children costed as leaves, relative to the node's
+  // leaf cost) grew by more than this share since it was chosen is decided afresh by golden,
+  // before any work goes into its children.
+  double split_tolerance = 0.1;
+  // A kept subtree whose cost (relative to its leaf cost) grew by more than this share since
+  // it was built is rebuilt: the safety net against slow decay and sudden jumps.
+  double subtree_tolerance = 0.25;
+  // Nodes of at least this many references re-search their plane around the filters'
+  // forecast (paper 000, Algorithm 1) and feed the filters.
+  std::size_t search_prims = 1024;
 };
 
 class KdCoherentBuilder {
  public:
   // `config.builder` is the from-scratch builder of the first frame and of rebuilt subtrees
-  // (empty: golden).
-  KdCoherentBuilder(const BuildConfig& config, const PredictorConfig& predictor);
+  // (empty: golden; golden is the only one).
+  KdCoherentBuilder(const BuildConfig& config, const PredictorConfig& predictor,
+                    const CoherentConfig& coherent = {});
   ~KdCoherentBuilder();
   KdCoherentBuilder(KdCoherentBuilder&&) noexcept;
   KdCoherentBuilder& operator=(KdCoherentBuilder&&) noexcept;

@@ -8,7 +8,11 @@
 #include <span>
 #include <vector>
 
+#include "splitray/accel/kd/binned_arena.hpp"
+#include "splitray/accel/kd/binned_split.hpp"
+#include "splitray/accel/kd/golden_search.hpp"
 #include "splitray/accel/kd/kd_build.hpp"
+#include "splitray/accel/kd/kd_emit.hpp"
 #include "splitray/accel/predict/split_predictor.hpp"
 
 namespace splitray {
@@ -25,5 +29,19 @@ struct GoldenNodeRecord {
 KdBuildResult build_kd_golden_steered(std::span<const Triangle> triangles, const Aabb& cell,
                                       const BuildConfig& config, const SplitPredictor* predictor,
                                       std::vector<GoldenNodeRecord>* records);
+
+// Golden's subtree of one node given as PrimRefs (bounds clipped to `cell`) at `depth` of a
+// tree over `tree_prims` triangles (which sets the depth limit), built sequentially and
+// appended to `out`; returns the cost evaluations. Coherent rebuilds (coherent_builder.hpp)
+// rebuild drifted subtrees with it.
+std::uint64_t build_kd_golden_refs(std::span<const PrimRef> prims,
+                                   std::span<const Triangle> triangles, const Aabb& cell, int depth,
+                                   std::size_t tree_prims, const BuildConfig& config, KdChunk& out);
+
+// The SAH minimum on `axis` within [lo, hi] of a node kept as PrimRefs (no sorted lists),
+// searched from `start` (golden_search_axis); `scratch` holds the bracket's events.
+GoldenSearchResult search_bracket_refs(std::span<const PrimRef> prims, const Aabb& cell, int axis,
+                                       const KdSplitCost& cost, float lo, float hi, float start,
+                                       BumpArena& scratch);
 
 }  // namespace splitray

@@ -43,32 +43,11 @@
 
 namespace splitray {
 
-namespace {
-
-constexpr std::size_t kParallelSubtree = 2048;  // prims above which children build in parallel
-constexpr std::size_t kParallelNode = 32768;    // prims above which one node's work is parallel
-constexpr std::size_t kSmallPrims = 64;         // nodes this small finish on PrimRef arrays
-static_assert(kSmallPrims <= kSmallSplitMaxPrims);
-
-// The records of a subtree in depth-first order: the node's own (and its sequential
-// subtree's), then the parts of its children built as tasks.
-struct RecordPart {
-  std::vector<GoldenNodeRecord> records;
-  std::unique_ptr<RecordPart> below, above;
-
-  void flatten(std::vector<GoldenNodeRecord>& out) {
-    out.insert(out.end(), records.begin(), records.end());
-    if (below) below->flatten(out);
-    if (above) above->flatten(out);
-  }
-};
-
-// The SAH minimum on `axis` within [lo, hi] of a node kept as PrimRefs (no sorted lists):
-// one pass collects the events inside the bracket and counts the primitives wholly on
+// One pass collects the events inside the bracket and counts the primitives wholly on
 // either side of it, then golden_search_axis searches the bracket from `start`.
-GoldenSearchResult search_bracket(std::span<const PrimRef> prims, const Aabb& cell, int axis,
-                                  const KdSplitCost& cost, float lo, float hi, float start,
-                                  BumpArena& scratch) {
+GoldenSearchResult search_bracket_refs(std::span<const PrimRef> prims, const Aabb& cell, int axis,
+                                       const KdSplitCost& cost, float lo, float hi, float start,
+                                       BumpArena& scratch) {
   lo = std::max(lo, cell.lo[axis]);
   hi = std::min(hi, cell.hi[axis]);
   if (!(lo < hi)) return {};
@@ -108,6 +87,26 @@ GoldenSearchResult search_bracket(std::span<const PrimRef> prims, const Aabb& ce
   scratch.release(mark);
   return r;
 }
+
+namespace {
+
+constexpr std::size_t kParallelSubtree = 2048;  // prims above which children build in parallel
+constexpr std::size_t kParallelNode = 32768;    // prims above which one node's work is parallel
+constexpr std::size_t kSmallPrims = 64;         // nodes this small finish on PrimRef arrays
+static_assert(kSmallPrims <= kSmallSplitMaxPrims);
+
+// The records of a subtree in depth-first order: the node's own (and its sequential
+// subtree's), then the parts of its children built as tasks.
+struct RecordPart {
+  std::vector<GoldenNodeRecord> records;
+  std::unique_ptr<RecordPart> below, above;
+
+  void flatten(std::vector<GoldenNodeRecord>& out) {
+    out.insert(out.end(), records.begin(), records.end());
+    if (below) below->flatten(out);
+    if (above) above->flatten(out);
+  }
+};
 
 class GoldenBuilder {
  public:
@@ -166,6 +165,15 @@ class GoldenBuilder {
         });
     evals += eb + ea;
     return part;
+  }
+
+  // The golden subtree of a node given as PrimRefs, sequentially, appended to `out`.
+  void build_refs_into(std::span<const PrimRef> prims, const Aabb& cell, int depth, KdChunk& out,
+                       std::uint64_t& evals) const {
+    Arenas& arenas = arenas_.local();
+    const BumpArena::Mark mark = arenas.nodes.mark();
+    build_refs(prims, cell, depth, 0, arenas.nodes, arenas.scratch, out, evals, nullptr);
+    arenas.nodes.release(mark);
   }
 
  private:
@@ -256,7 +264,7 @@ class GoldenBuilder {
       const int a = prediction->axis;
       const PredictedSearch p = search_predicted(
           *prediction, cell, cost_.leaf(n), [&](int axis, float lo, float hi, float start) {
-            return search_bracket(prims, cell, axis, cost_, lo, hi, start, scratch);
+            return search_bracket_refs(prims, cell, axis, cost_, lo, hi, start, scratch);
           });
       const GoldenSearchResult& r = p.result;
       evals += r.evals;
@@ -458,6 +466,16 @@ KdBuildResult build_kd_golden_steered(std::span<const Triangle> triangles, const
     rec.flatten(*records);
   }
   return result;
+}
+
+std::uint64_t build_kd_golden_refs(std::span<const PrimRef> prims,
+                                   std::span<const Triangle> triangles, const Aabb& cell, int depth,
+                                   std::size_t tree_prims, const BuildConfig& config,
+                                   KdChunk& out) {
+  const GoldenBuilder builder(triangles, config, tree_prims, nullptr, false);
+  std::uint64_t evals = 0;
+  builder.build_refs_into(prims, cell, depth, out, evals);
+  return evals;
 }
 
 KdBuildResult build_kd_golden(std::span<const Triangle> triangles, const Aabb& cell,

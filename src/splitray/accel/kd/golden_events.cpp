@@ -71,8 +71,6 @@ void count_events(const Aabb& b, EventCounts& counts) {
   }
 }
 
-enum Side : std::uint8_t { kBelow = 1, kAbove = 2, kBoth = 3 };
-
 }  // namespace
 
 GoldenPrims::GoldenPrims(std::size_t prims, const EventCounts& counts, BumpArena* arena)
