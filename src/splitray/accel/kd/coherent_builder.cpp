@@ -572,6 +572,7 @@ struct KdCoherentBuilder::State {
   Shape shape;  // the previous frame's tree
   std::size_t triangles = 0;
   std::size_t frame = 0;
+  double rebuilt_share = 0;  // of the last frame's nodes
 };
 
 KdCoherentBuilder::KdCoherentBuilder(const BuildConfig& config, const PredictorConfig& predictor,
@@ -615,10 +616,13 @@ std::unique_ptr<KdAccel> KdCoherentBuilder::next_frame(std::span<const Triangle>
   for (std::size_t i = 0; i < triangles.size(); ++i)
     refs[i] = {triangles[i].bounds(), static_cast<std::uint32_t>(i)};
 
-  Shape first;  // frame 0: golden's tree from scratch, its planes adopted
-  if (s.shape.empty()) {
+  Shape first;  // golden's tree from scratch, its planes adopted
+  if (s.shape.empty() || s.rebuilt_share > s.coherent.scratch_share) {
     stats.from_scratch = true;
-    stats.reason = "first frame";
+    stats.reason = s.shape.empty()
+                       ? "first frame"
+                       : "the previous frame rebuilt " +
+                             std::to_string(std::lround(100 * s.rebuilt_share)) + "% of the tree";
     const Timer golden;
     KdBuildResult built = build_kd_golden(triangles, bounds, s.config);
     const KdTree tree = take_kd_tree(built, bounds);
@@ -656,6 +660,11 @@ std::unique_ptr<KdAccel> KdCoherentBuilder::next_frame(std::span<const Triangle>
   stats.rebuild_ms += counters.rebuild_ms;
   // The walk's CPU time not spent searching or rebuilding.
   stats.distribute_ms = std::max(0.0, counters.walk_ms - counters.search_ms - counters.rebuild_ms);
+  s.rebuilt_share = stats.from_scratch
+                        ? 0
+                        : static_cast<double>(built.rebuilt) /
+                              static_cast<double>(std::max<std::size_t>(
+                                  1, built.rebuilt + built.reused + built.reoptimised));
   stats.reused_nodes = built.reused;
   stats.reoptimised_nodes = built.reoptimised;
   stats.rebuilt_nodes = built.rebuilt;

@@ -46,6 +46,10 @@ struct CoherentConfig {
   // Nodes of at least this many references re-search their plane around the filters'
   // forecast (paper 000, Algorithm 1) and feed the filters.
   std::size_t search_prims = 1024;
+  // After a frame that rebuilt more than this share of its nodes, the next frame is built
+  // from scratch: the kept shape's references have aged, and distributing into a tree that
+  // is then mostly rebuilt costs more than building it afresh.
+  double scratch_share = 0.4;
 };
 
 class KdCoherentBuilder {
