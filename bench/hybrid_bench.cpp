@@ -16,6 +16,7 @@
 #include "splitray/core/image.hpp"
 #include "splitray/core/parallel.hpp"
 #include "splitray/core/timer.hpp"
+#include "splitray/io/load_scene.hpp"
 #include "splitray/io/mesh_io.hpp"
 #include "splitray/io/plot_script.hpp"
 #include "splitray/render/data_dir.hpp"

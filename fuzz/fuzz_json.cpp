@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include "fuzz_input.hpp"
+#include "splitray/io/load_scene.hpp"
 #include "splitray/io/mesh_io.hpp"
 
 extern "C" int LLVMFuzzerInitialize(int*, char***) {

@@ -8,6 +8,7 @@
 
 #include "fuzz_input.hpp"
 #include "splitray/io/frames.hpp"
+#include "splitray/io/load_scene.hpp"
 #include "splitray/io/mesh_io.hpp"
 
 namespace {

@@ -17,6 +17,7 @@
 
 #include "splitray/core/errors.hpp"
 #include "splitray/io/frames.hpp"
+#include "splitray/io/load_scene.hpp"
 #include "splitray/io/mesh_io.hpp"
 #include "splitray/io/read_file.hpp"
 #include "splitray/io/triangulate.hpp"

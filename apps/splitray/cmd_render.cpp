@@ -17,6 +17,7 @@
 #include "splitray/core/errors.hpp"
 #include "splitray/core/timer.hpp"
 #include "splitray/dist/world.hpp"
+#include "splitray/io/load_scene.hpp"
 #include "splitray/io/mesh_io.hpp"
 #include "splitray/render/default_scene.hpp"
 #include "splitray/render/whitted.hpp"

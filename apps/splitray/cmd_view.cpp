@@ -13,6 +13,7 @@
 #include "splitray/core/errors.hpp"
 #include "splitray/core/image.hpp"
 #include "splitray/io/frames.hpp"
+#include "splitray/io/load_scene.hpp"
 #include "splitray/io/mesh_io.hpp"
 #include "splitray/render/default_scene.hpp"
 #if SPLITRAY_HAS_RENDER_GL

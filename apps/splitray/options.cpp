@@ -16,6 +16,7 @@
 #include "splitray/core/parallel.hpp"
 #include "splitray/core/scene.hpp"
 #include "splitray/core/timer.hpp"
+#include "splitray/io/load_scene.hpp"
 #include "splitray/io/mesh_io.hpp"
 
 namespace splitray::app {

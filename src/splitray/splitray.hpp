@@ -18,6 +18,7 @@
 #include "splitray/accel/mesh_scene.hpp"
 // Files
 #include "splitray/io/frames.hpp"       // animation sequences
+#include "splitray/io/load_scene.hpp"   // JSON and BART scenes, or any mesh file as a scene
 #include "splitray/io/mesh_io.hpp"      // OBJ, PLY, STL, OFF, glTF/GLB, DAE, MD2 (also .gz)
 #include "splitray/io/scene_json.hpp"   // JSON scenes
 #include "splitray/query/point_io.hpp"  // point files

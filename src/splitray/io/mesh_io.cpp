@@ -13,12 +13,10 @@
 #include <vector>
 
 #include "splitray/core/errors.hpp"
-#include "splitray/io/aff.hpp"
 #include "splitray/io/assimp_buffer_io.hpp"
 #include "splitray/io/format_checks.hpp"
 #include "splitray/io/materials.hpp"
 #include "splitray/io/read_file.hpp"
-#include "splitray/io/scene_json.hpp"
 #include "splitray/io/triangulate.hpp"
 
 namespace splitray {
@@ -329,16 +327,6 @@ Mesh load_mesh(const std::string& path, const MeshLoadOptions& options) {
   }
   mesh.validate(path);
   return mesh;
-}
-
-Scene load_scene(const std::string& path) {
-  const std::string extension = inner_extension(path);
-  if (extension == "json") return load_json_scene(path);
-  if (extension == "aff") return load_aff_scene(path);
-  std::vector<std::string> warnings;
-  Scene scene = scene_from_mesh(load_mesh(path, {.materials = true, .warnings = &warnings}));
-  scene.warnings = std::move(warnings);
-  return scene;
 }
 
 }  // namespace splitray

@@ -5,7 +5,6 @@
 
 #include "splitray/core/errors.hpp"  // the Error every loader throws
 #include "splitray/core/mesh.hpp"
-#include "splitray/core/scene.hpp"
 
 namespace splitray {
 
@@ -26,11 +25,5 @@ struct MeshLoadOptions {
 // triangulated) through assimp: OBJ, PLY, STL, OFF, glTF/GLB, COLLADA, MD2 and the rest of
 // assimp's formats. A name ending in .gz is gunzipped in memory first (zlib).
 Mesh load_mesh(const std::string& path, const MeshLoadOptions& options = {});
-
-// A JSON scene file (*.json: meshes, transforms, materials, lights, camera; see README), a
-// BART scene (*.aff: its camera, lights and materials at the animation's start), or any mesh
-// file, which becomes scene_from_mesh(load_mesh(path)) with the file's own materials.
-// Problems that do not stop the load are in Scene::warnings.
-Scene load_scene(const std::string& path);
 
 }  // namespace splitray

@@ -258,9 +258,9 @@ PointBuildOutput expand_point_top(std::span<const Vec3> points, const Aabb& boun
   while (!stack.empty()) {
     const auto [n, depth] = stack.back();
     stack.pop_back();
-    if (depth > PointTree::kMaxDepth)
+    if (depth > kPointTreeMaxDepth)
       throw Error("--builder neural",
-                  "the tree is deeper than " + std::to_string(PointTree::kMaxDepth) + " levels");
+                  "the tree is deeper than " + std::to_string(kPointTreeMaxDepth) + " levels");
     if (out.nodes[n].is_leaf()) continue;
     stack.emplace_back(n + 1, depth + 1);
     stack.emplace_back(n + out.nodes[n].index, depth + 1);

@@ -2,8 +2,6 @@
 
 #include <tbb/parallel_invoke.h>
 
-#include "splitray/query/neural_point_build.hpp"
-
 #if defined(__AVX512F__)
 #include <immintrin.h>
 #endif
@@ -98,7 +96,7 @@ class Builder {
   void build(std::vector<PointNode>& out, std::size_t b, std::size_t e, const Aabb& cell, int depth,
              unsigned parity) {
     const std::size_t n = e - b;
-    const Split split = n <= leaf_size_ || depth >= PointTree::kMaxDepth - 1
+    const Split split = n <= leaf_size_ || depth >= kPointTreeMaxDepth - 1
                             ? Split{}
                             : choose(b, e, cell, depth, parity);
     if (split.axis < 0) {
@@ -189,7 +187,7 @@ class Builder {
 
   Split choose(std::size_t b, std::size_t e, const Aabb& cell, int depth, unsigned parity) {
     // Near the depth limit, balanced splits keep every leaf within the query stack.
-    if (heuristic_ == Heuristic::median || depth + ceil_log2(e - b) + 8 >= PointTree::kMaxDepth)
+    if (heuristic_ == Heuristic::median || depth + ceil_log2(e - b) + 8 >= kPointTreeMaxDepth)
       return choose_median(b, e, parity);
     std::array<Split, 3> best;
     const auto sweep_axis = [&](int a) { best[a] = sweep(b, e, cell, a, parity); };
@@ -349,12 +347,6 @@ class Builder {
 
 PointBuildOutput build_point_tree(std::span<const Vec3> points, const Aabb& bounds,
                                   const PointTreeConfig& config, float radius) {
-  if (config.builder == "neural") {  // paper 003: an inferred top, expanded by config.expand
-    NeuralPointBuild neural = build_neural_point_tree(points, bounds, config, radius);
-    neural.tree.inference_ms = neural.top.inference_ms;
-    neural.tree.top_depth = neural.top.depth;
-    return std::move(neural.tree);
-  }
   Builder builder(points, config, radius);
   builder.prepare_permutation();
   PointBuildOutput out;

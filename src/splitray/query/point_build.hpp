@@ -5,7 +5,8 @@
 #include <span>
 #include <vector>
 
-#include "splitray/query/point_tree.hpp"
+#include "splitray/core/aabb.hpp"
+#include "splitray/query/point_tree_config.hpp"
 
 namespace splitray {
 

@@ -7,6 +7,7 @@
 #include "splitray/core/parallel.hpp"
 #include "splitray/core/timer.hpp"
 #include "splitray/query/batch.hpp"
+#include "splitray/query/neural_point_build.hpp"
 #include "splitray/query/point_build.hpp"
 
 namespace splitray {
@@ -155,7 +156,15 @@ PointTree::PointTree(std::span<const Vec3> points, const PointTreeConfig& config
     radius = 1e-4f * length(bounds_.extent());
     if (!(radius > 0)) radius = 1;  // all points coincide: any positive expansion works
   }
-  PointBuildOutput built = build_point_tree(points, bounds_, config, radius);
+  PointBuildOutput built;
+  if (config.builder == "neural") {  // paper 003: an inferred top, expanded by config.expand
+    NeuralPointBuild neural = build_neural_point_tree(points, bounds_, config, radius);
+    neural.tree.inference_ms = neural.top.inference_ms;
+    neural.tree.top_depth = neural.top.depth;
+    built = std::move(neural.tree);
+  } else {
+    built = build_point_tree(points, bounds_, config, radius);
+  }
   nodes_ = std::move(built.nodes);
   inference_ms_ = built.inference_ms;
   top_depth_ = built.top_depth;

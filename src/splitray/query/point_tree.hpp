@@ -15,46 +15,11 @@
 #include <string>
 #include <vector>
 
-#include "splitray/accel/accel.hpp"  // kNeuralTopMinPrims
 #include "splitray/core/aabb.hpp"
 #include "splitray/query/neighbors.hpp"
+#include "splitray/query/point_tree_config.hpp"
 
 namespace splitray {
-
-struct PointTreeConfig {
-  std::string builder = "vvh";  // vvh | sah | median
-  // A node with this many points or fewer becomes a leaf; VVH/SAH also stop where splitting
-  // costs more than the leaf (Eq. 4), for nodes of up to 1024 points.
-  int leaf_size = 10;
-  // VVH/SAH: cells are expanded by this radius on every side (paper 003: the search radius;
-  // 1e-4 for general neighbourhoods). <= 0: automatic, 1e-4 × the bounding-box diagonal.
-  float radius = 0;
-  float traversal_cost = 1.2f;  // c_t of paper 003 §6.3
-  float point_cost = 1.0f;      // c_i
-  // builder "neural" (paper 003): the model file (empty = the shipped models/vvh.bin) and the
-  // builder that expands the inferred top's leaf cells (empty = vvh).
-  std::string model{};
-  std::string expand{};
-  // Inferred-top nodes with fewer points are left to the expander (0: the model's depth).
-  int top_min_points = kNeuralTopMinPrims;
-  bool greedy_top = false;  // builder "neural": the samples' greedy top instead of the network
-};
-
-// Interior: the points below have coordinate[axis] <= below_max < above_min <= the points
-// above; the below child follows this node, the above child is `index` nodes further on.
-// Leaf: points permutation[index, index + count); count 0 for the empty side of an
-// empty-space cut (the neural builder's expanded top cells, neural_point_build.cpp).
-struct PointNode {
-  float below_max = 0;
-  float above_min = 0;
-  std::uint32_t index = 0;
-  std::uint32_t bits = 3;  // low 2 bits: axis, 3 = leaf; leaf count in the upper 30 bits
-
-  bool is_leaf() const { return (bits & 3u) == 3u; }
-  int axis() const { return static_cast<int>(bits & 3u); }
-  std::uint32_t count() const { return bits >> 2; }
-};
-static_assert(sizeof(PointNode) == 16);
 
 struct PointTreeStats {
   std::string builder;
@@ -74,7 +39,7 @@ struct PointTreeStats {
 
 class PointTree {
  public:
-  static constexpr int kMaxDepth = 120;  // the query stack is fixed; builders respect this
+  static constexpr int kMaxDepth = kPointTreeMaxDepth;
 
   // Throws Error on no points, a NaN or infinite point, a bad config or an unknown builder.
   explicit PointTree(std::span<const Vec3> points, const PointTreeConfig& config = {});

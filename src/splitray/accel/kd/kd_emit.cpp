@@ -1,19 +1,8 @@
 #include "splitray/accel/kd/kd_emit.hpp"
 
-#include <string>
-
-#include "splitray/accel/kd/kd_build.hpp"
-#include "splitray/core/errors.hpp"
-
 namespace splitray {
 
 namespace {
-
-void check_index(std::size_t value, const char* what) {
-  if (value > KdNode::kMaxIndex)
-    throw Error("kd-tree", std::string("too many ") + what + " for the 8-byte node format (" +
-                               std::to_string(value) + " > 2^30 - 1)");
-}
 
 std::size_t count_nodes(const KdPartial& p, std::size_t& prims) {
   if (p.axis < 0) {
@@ -47,25 +36,13 @@ void emit(KdPartial& p, KdTree& tree) {
 KdTree assemble_kd(KdPartial& top, const Aabb& bounds) {
   std::size_t prims = 0;
   const std::size_t nodes = count_nodes(top, prims);
-  check_index(nodes, "nodes");
-  check_index(prims, "primitive references");
+  check_kd_index(nodes, "nodes");
+  check_kd_index(prims, "primitive references");
   KdTree tree;
   tree.bounds = bounds;
   tree.nodes.reserve(nodes);
   tree.prim_ids.reserve(prims);
   emit(top, tree);
-  return tree;
-}
-
-KdTree take_kd_tree(KdBuildResult& built, const Aabb& bounds) {
-  if (built.tree) {
-    KdTree tree = std::move(*built.tree);
-    built.tree.reset();
-    return tree;
-  }
-  if (!built.root) throw Error("kd-tree", "the builder returned no tree");
-  KdTree tree = flatten_kd(*built.root, bounds);
-  built.root.reset();
   return tree;
 }
 

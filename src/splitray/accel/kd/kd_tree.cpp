@@ -1,40 +1,14 @@
 #include "splitray/accel/kd/kd_tree.hpp"
 
 #include <algorithm>
+#include <string>
 
-#include "splitray/accel/kd/kd_build.hpp"
 #include "splitray/accel/sah_cost.hpp"
 #include "splitray/core/errors.hpp"
 
 namespace splitray {
 
 namespace {
-
-void check_index(std::size_t value, const char* what) {
-  if (value > KdNode::kMaxIndex)
-    throw Error("kd-tree", std::string("too many ") + what + " for the 8-byte node format (" +
-                               std::to_string(value) + " > 2^30 - 1)");
-}
-
-void flatten(const KdBuildNode& node, KdTree& tree) {
-  if (node.axis < 0) {
-    check_index(tree.prim_ids.size(), "primitive references");
-    check_index(node.prims.size(), "primitives in one leaf");
-    tree.nodes.push_back(KdNode::leaf(static_cast<std::uint32_t>(tree.prim_ids.size()),
-                                      static_cast<std::uint32_t>(node.prims.size())));
-    tree.prim_ids.insert(tree.prim_ids.end(), node.prims.begin(), node.prims.end());
-    return;
-  }
-  if (!node.below || !node.above || node.axis > 2)
-    throw Error("kd-tree", "a builder produced an interior node without two children");
-  const std::size_t index = tree.nodes.size();
-  tree.nodes.push_back(KdNode::interior(node.axis, node.split, 0));
-  flatten(*node.below, tree);
-  check_index(tree.nodes.size(), "nodes");
-  tree.nodes[index] =
-      KdNode::interior(node.axis, node.split, static_cast<std::uint32_t>(tree.nodes.size()));
-  flatten(*node.above, tree);
-}
 
 struct StatsWalk {
   const KdTree& tree;
@@ -64,11 +38,10 @@ struct StatsWalk {
 
 }  // namespace
 
-KdTree flatten_kd(const KdBuildNode& root, const Aabb& bounds) {
-  KdTree tree;
-  tree.bounds = bounds;
-  flatten(root, tree);
-  return tree;
+void check_kd_index(std::size_t value, const char* what) {
+  if (value > KdNode::kMaxIndex)
+    throw Error("kd-tree", std::string("too many ") + what + " for the 8-byte node format (" +
+                               std::to_string(value) + " > 2^30 - 1)");
 }
 
 AccelStats kd_tree_stats(const KdTree& tree, const BuildConfig& config) {

@@ -1,6 +1,7 @@
 #pragma once
 // The built kd-tree as plain data: compact 8-byte nodes laid out depth first (the below child
 // of an interior node is the next node), and the primitive references of the leaves.
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -46,6 +47,9 @@ struct KdTree {
   std::vector<KdNode> nodes;            // nodes[0] = root
   std::vector<std::uint32_t> prim_ids;  // leaf references, leaf after leaf
 };
+
+// Throws Error naming `what` when `value` exceeds the 8-byte node format (2^30 - 1).
+void check_kd_index(std::size_t value, const char* what);
 
 // Node counts, depths, references and the shared SAH cost (sah_cost.hpp) of the tree's cells,
 // with K_T and K_I from `config`. Leaves accel, builder, build_ms and cost_evals to the caller.

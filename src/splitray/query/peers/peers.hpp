@@ -4,7 +4,7 @@
 // (distance² <= r², float) by passing the next float above r².
 #include <memory>
 
-#include "splitray/query/neighbor_index.hpp"
+#include "splitray/query/neighbor_index_interface.hpp"
 
 namespace splitray::detail {
 
