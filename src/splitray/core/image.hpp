@@ -44,4 +44,7 @@ ImageFormat check_image_path(const std::string& path);
 void write_image(const std::string& path, const Image& image,
                  const ImageWriteOptions& options = {});
 
+// PSNR in dB of two images of the same size over their 8-bit sRGB values (inf if equal).
+double psnr_db(const Image& a, const Image& b);
+
 }  // namespace splitray

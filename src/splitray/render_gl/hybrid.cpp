@@ -687,17 +687,4 @@ RenderResult render_hybrid(const Scene& scene, const Camera& camera, const Hybri
   return result;
 }
 
-double psnr_db(const Image& a, const Image& b) {
-  if (a.width != b.width || a.height != b.height) throw Error("psnr", "images differ in size");
-  const auto x = a.to_srgb8(), y = b.to_srgb8();
-  double sum = 0;
-  for (std::size_t i = 0; i < x.size(); ++i) {
-    const double d = static_cast<double>(x[i]) - y[i];
-    sum += d * d;
-  }
-  if (sum == 0) return INFINITY;
-  const double mse = sum / static_cast<double>(x.size());
-  return 10 * std::log10(255.0 * 255.0 / mse);
-}
-
 }  // namespace splitray

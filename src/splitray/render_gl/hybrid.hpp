@@ -23,18 +23,18 @@ namespace splitray {
 struct HybridOptions {
   int width = 800;
   int height = 600;
-  int max_depth = 5;             // as RenderOptions::max_depth (primary hit = depth 0)
-  std::string accel = "kd";      // the structure of the CPU pass
+  int max_depth = 5;         // as RenderOptions::max_depth (primary hit = depth 0)
+  std::string accel = "kd";  // the structure of the CPU pass
   BuildConfig build;
-  int blur_kernel = 5;           // K of the KxK blur marking shadow boundaries (odd, >= 1)
-  int shadow_map_size = 2048;    // texels per side (cube maps: per face, halved)
-  bool lispsm = true;            // false: uniform (orthographic) shadow maps
-  bool refine_shadows = true;    // exact shadow rays for boundary pixels
-  bool secondary = true;         // reflection and refraction rays on the CPU
+  int blur_kernel = 5;         // K of the KxK blur marking shadow boundaries (odd, >= 1)
+  int shadow_map_size = 2048;  // texels per side (cube maps: per face, halved)
+  bool lispsm = true;          // false: uniform (orthographic) shadow maps
+  bool refine_shadows = true;  // exact shadow rays for boundary pixels
+  bool secondary = true;       // reflection and refraction rays on the CPU
   // The shadow rays of secondary hits answered from the shadow maps where a 3x3 texel
   // neighbourhood agrees (traced at shadow edges, transparent casters and outside the maps).
   bool map_secondary_shadows = true;
-  bool interleaved = true;       // false: the passes of each frame strictly in sequence
+  bool interleaved = true;  // false: the passes of each frame strictly in sequence
 };
 
 constexpr int kMaxHybridLights = 4;
@@ -42,7 +42,7 @@ constexpr int kMaxHybridLights = 4;
 // One finished frame and what it cost.
 struct HybridFrame {
   Image image;
-  std::array<double, 5> pass_ms{};   // GPU passes timed with queries, the CPU pass on the CPU
+  std::array<double, 5> pass_ms{};  // GPU passes timed with queries, the CPU pass on the CPU
   std::uint64_t cpu_rays = 0;
   std::uint64_t boundary_rays = 0;   // of cpu_rays: exact shadow rays of boundary pixels; the
                                      // rest are secondary rays and their shadow rays
@@ -76,8 +76,9 @@ class HybridRenderer {
   // Animation: frames submitted from now on show `triangles` (same count and order as the
   // scene's flattened triangles; flat-shaded), traced through the hierarchy `build` makes
   // from them (null: make_accel of the options). Frames in flight keep their own geometry.
-  void set_triangles(std::vector<Triangle> triangles,
-                     const std::function<std::unique_ptr<Accel>(std::span<const Triangle>)>& build = {});
+  void set_triangles(
+      std::vector<Triangle> triangles,
+      const std::function<std::unique_ptr<Accel>(std::span<const Triangle>)>& build = {});
 
   // The composite of the last frame as a GL texture (RGBA32F), for the viewer.
   unsigned last_texture() const;
@@ -97,8 +98,5 @@ class HybridRenderer {
 // is the CPU pass's time and gl_renderer the OpenGL renderer that ran.
 // Throws Error (never crashes) when no usable OpenGL 4.5 exists.
 RenderResult render_hybrid(const Scene& scene, const Camera& camera, const HybridOptions& options);
-
-// PSNR in dB of two images of the same size over their 8-bit sRGB values (inf if equal).
-double psnr_db(const Image& a, const Image& b);
 
 }  // namespace splitray
