@@ -9,135 +9,14 @@
 #include "splitray/core/errors.hpp"
 #include "splitray/core/parallel.hpp"
 #include "splitray/core/timer.hpp"
-#include "splitray/render/shading.hpp"
 #include "splitray/render/surface.hpp"
+#include "splitray/render/tracer.hpp"
 
 namespace splitray {
 
 namespace {
 
 constexpr int kTileSize = 16;
-// A shadow ray crosses at most this many transparent surfaces before it counts as blocked.
-constexpr int kMaxShadowCrossings = 16;
-
-// Recursive Whitted tracing of one ray. Pure: a pixel depends only on its own rays, so the
-// image is the same for every thread count and tile order.
-class Tracer {
- public:
-  Tracer(const Scene& scene, const FlatScene& flat, const std::vector<Light>& lights,
-         const Accel& accel, int max_depth, float eps)
-      : scene_(scene),
-        flat_(flat),
-        lights_(lights),
-        accel_(accel),
-        max_depth_(max_depth),
-        eps_(eps) {
-    for (const Material& m : flat.materials)
-      has_transparent_ = has_transparent_ || m.transparency > 0;
-  }
-
-  Vec3 trace(const Ray& ray, int depth, std::uint64_t& rays) const {
-    ++rays;
-    const Hit hit = accel_.intersect(ray);
-    if (!hit.found()) return scene_.background;
-    return shade(ray, hit, depth, rays);
-  }
-
- private:
-  Vec3 shade(const Ray& ray, const Hit& hit, int depth, std::uint64_t& rays) const {
-    const Triangle& tri = flat_.triangles[hit.prim];
-    const Material& m = flat_.materials[flat_.material[hit.prim]];
-    const Vec3 diffuse = m.diffuse_at(hit_uv(flat_.uvs[hit.prim], hit.u, hit.v));
-    const Vec3 d = normalize(ray.dir);
-    const Vec3 p = hit_position(tri, hit);
-
-    // Two-sided: the geometric normal decides which side the ray came from (entering a
-    // transparent object or leaving it); both normals are turned to face the ray.
-    Vec3 ng = normalize(tri.geometric_normal());
-    const bool entering = dot(ng, d) < 0;
-    if (!entering) ng = -ng;
-    const auto& vn = flat_.vertex_normals[hit.prim];
-    Vec3 ns = normalize(vn[0] * (1 - hit.u - hit.v) + vn[1] * hit.u + vn[2] * hit.v);
-    if (!(dot(ns, ns) > 0.5f) || !is_finite(ns)) ns = ng;
-    if (dot(ns, ng) < 0) ns = -ns;
-    // Where interpolation bends the normal away from the viewer, mirror and Snell use the
-    // geometric normal instead.
-    const Vec3 n_bounce = dot(d, ns) < 0 ? ns : ng;
-
-    const Vec3 above = p + ng * eps_, below = p - ng * eps_;
-    const float share = diffuse_share(m);
-    Vec3 color = scene_.ambient * m.ambient.value_or(diffuse) * share;
-    for (const Light& light : lights_) {
-      const LightSample s = sample_light(light, p);
-      if (dot(ng, s.to_light) <= 0) continue;  // the surface itself faces away
-      const Vec3 c = phong(m, diffuse, share, ns, -d, s);
-      if (c == Vec3{0}) continue;
-      color += c * visibility(above, light, s, rays);
-    }
-    if (depth >= max_depth_) return color;
-
-    float kr = m.reflectivity, kt = m.transparency;
-    std::optional<Vec3> refracted;
-    if (kt > 0) {
-      const float n1 = entering ? 1.0f : m.ior, n2 = entering ? m.ior : 1.0f;
-      refracted = refract(d, n_bounce, n1 / n2);
-      if (refracted && dot(*refracted, ng) >= 0) refracted = refract(d, ng, n1 / n2);
-      if (!refracted) {  // total internal reflection
-        kr += kt;
-        kt = 0;
-      } else if (m.fresnel) {
-        const float f = schlick(n1, n2, std::clamp(-dot(d, n_bounce), 0.0f, 1.0f),
-                                std::clamp(-dot(*refracted, n_bounce), 0.0f, 1.0f));
-        kr += kt * f;
-        kt *= 1 - f;
-      }
-    }
-    if (kr > 0) {
-      Vec3 r = reflect(d, n_bounce);
-      if (dot(r, ng) <= 0) r = reflect(d, ng);
-      color += trace(Ray{above, r}, depth + 1, rays) * kr;
-    }
-    if (kt > 0) color += trace(Ray{below, *refracted}, depth + 1, rays) * kt;
-    return color;
-  }
-
-  // 1 if the light is visible from `org`, 0 if an opaque surface blocks it, and the product
-  // of the transparencies of the transparent surfaces in between otherwise (hard shadows
-  // lightened by glass; no caustics).
-  Vec3 visibility(const Vec3& org, const Light& light, const LightSample& s,
-                  std::uint64_t& rays) const {
-    Ray ray{org, s.to_light, 0, s.distance};
-    ++rays;
-    if (!accel_.occluded(ray)) return Vec3{1};
-    if (!has_transparent_) return Vec3{0};
-    float transmitted = 1;
-    for (int crossing = 0; crossing < kMaxShadowCrossings; ++crossing) {
-      ++rays;
-      const Hit hit = accel_.intersect(ray);
-      if (!hit.found()) return Vec3{transmitted};
-      const Material& m = flat_.materials[flat_.material[hit.prim]];
-      if (m.transparency <= 0) return Vec3{0};
-      transmitted *= m.transparency;
-      const Triangle& tri = flat_.triangles[hit.prim];
-      Vec3 ng = normalize(tri.geometric_normal());
-      if (dot(ng, ray.dir) < 0) ng = -ng;  // continue on the far side
-      ray.org = hit_position(tri, hit) + ng * eps_;
-      const LightSample next = sample_light(light, ray.org);
-      ray.dir = next.to_light;
-      ray.tmax = next.distance;
-    }
-    return Vec3{0};
-  }
-
-  const Scene& scene_;
-  const FlatScene& flat_;
-  const std::vector<Light>& lights_;
-  const Accel& accel_;
-  int max_depth_;
-  float eps_;
-  bool has_transparent_ = false;
-};
-
 }  // namespace
 
 struct WhittedRenderer::State {
@@ -163,7 +42,7 @@ struct WhittedRenderer::State {
   std::vector<Light> lights;
   LightCoverage coverage;
   AccelStats stats;
-  std::optional<Tracer> tracer;
+  std::optional<WhittedTracer> tracer;
 };
 
 namespace {
@@ -207,7 +86,7 @@ Image WhittedRenderer::render(const PixelRect& rect, std::uint64_t& rays_out,
                               " are not inside the " + std::to_string(options.width) + "x" +
                               std::to_string(options.height) + " image");
   const ThreadLimit limit(options.build.threads);
-  const Tracer& tracer = *state_->tracer;
+  const WhittedTracer& tracer = *state_->tracer;
   const Camera& camera = state_->camera;
   Image image(rect.width(), rect.height());
   const int tiles_x = (rect.width() + kTileSize - 1) / kTileSize;
@@ -222,15 +101,15 @@ Image WhittedRenderer::render(const PixelRect& rect, std::uint64_t& rays_out,
       const int x0 = rect.x0 + static_cast<int>(tile % tiles_x) * kTileSize;
       const int y0 = rect.y0 + static_cast<int>(tile / tiles_x) * kTileSize;
       const int x1 = std::min(x0 + kTileSize, rect.x1), y1 = std::min(y0 + kTileSize, rect.y1);
-      std::uint64_t rays = 0;
+      TraceCounters counters;
       for (int y = y0; y < y1; ++y)
         for (int x = x0; x < x1; ++x) {
           const Ray ray =
               camera.generate(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f,
                               options.width, options.height);
-          image.at(x - rect.x0, y - rect.y0) = tracer.trace(ray, 0, rays);
+          image.at(x - rect.x0, y - rect.y0) = tracer.trace(ray, 0, counters);
         }
-      tile_rays[tile] = rays;
+      tile_rays[tile] = counters.rays;
       if (progress) {
         const std::lock_guard lock(progress_mutex);
         ++tiles_done;

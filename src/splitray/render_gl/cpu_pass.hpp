@@ -1,15 +1,17 @@
 #pragma once
 // Pass 4 of the hybrid renderer: from the GPU's triangle ids, the CPU traces reflection and
-// refraction rays (Whitted, as render/whitted.cpp) and exact shadow rays for boundary pixels.
+// refraction rays and exact shadow rays for boundary pixels through the Whitted renderer's
+// shading core (render/tracer.hpp); this file keeps the ID-buffer reconstruction of the
+// primary hits and the pixel scheduling.
 #include <array>
 #include <cstdint>
-#include <vector>
-
 #include <glm/glm.hpp>
+#include <vector>
 
 #include "splitray/accel/accel.hpp"
 #include "splitray/core/image.hpp"
 #include "splitray/core/scene.hpp"
+#include "splitray/render/tracer.hpp"
 
 namespace splitray::gl {
 
@@ -24,8 +26,8 @@ struct LightMap {
   std::array<glm::mat4, 6> matrices{};  // directional: [0]; cube faces in GL order
   Vec3 position{0};                     // point lights
   float range = 1, normal_offset = 0;
-  std::vector<float> depth;             // faces x size x size, bottom row first (GL)
-  std::vector<std::uint8_t> flag;       // transparent nearest caster
+  std::vector<float> depth;        // faces x size x size, bottom row first (GL)
+  std::vector<std::uint8_t> flag;  // transparent nearest caster
 
   // 1 lit, 0 shadowed, -1 ask a ray; `p` on a surface whose geometric normal `ng` faces the
   // ray that found it.
@@ -35,15 +37,15 @@ struct LightMap {
 struct CpuPassInput {
   int width = 0, height = 0;
   Camera camera;
-  std::vector<std::uint32_t> ids;                    // id + 1, top row first
-  std::vector<std::array<float, 4>> mask;            // shadow-map visibility per light
-  std::vector<std::array<std::uint8_t, 4>> boundary; // 1 = trace an exact shadow ray
+  std::vector<std::uint32_t> ids;                     // id + 1, top row first
+  std::vector<std::array<float, 4>> mask;             // shadow-map visibility per light
+  std::vector<std::array<std::uint8_t, 4>> boundary;  // 1 = trace an exact shadow ray
   std::vector<LightMap> maps;  // per light; empty: every secondary shadow ray is traced
 };
 
 struct CpuPassOutput {
-  std::vector<std::array<float, 4>> color;     // rgb reflection + refraction, a unused
-  std::vector<std::array<float, 4>> refined;   // visibility per light
+  std::vector<std::array<float, 4>> color;    // rgb reflection + refraction, a unused
+  std::vector<std::array<float, 4>> refined;  // visibility per light
   std::uint64_t rays = 0;
   std::uint64_t boundary_rays = 0;  // of `rays`: exact shadow rays of boundary pixels
   std::uint64_t map_answers = 0;    // secondary shadow rays the shadow maps made unnecessary
@@ -65,25 +67,8 @@ class CpuPass {
                          std::uint32_t prim, int light, std::uint64_t& rays) const;
 
  private:
-  struct Surface;
-  Surface surface(const Ray& ray, std::uint32_t prim, float t, float u, float v) const;
-  // What one pixel's secondary rays need: the counters and the frame's shadow maps.
-  struct Trace {
-    std::uint64_t rays = 0, map_answers = 0;
-    const std::vector<LightMap>* maps = nullptr;
-  };
-  Vec3 trace(const Ray& ray, int depth, Trace& t) const;
-  Vec3 shade(const Ray& ray, const Surface& s, int depth, Trace& t) const;
-  Vec3 secondary(const Ray& ray, const Surface& s, int depth, Trace& t) const;
-  float visibility(const Vec3& org, const Light& light, std::uint64_t& rays) const;
-
-  const Scene& scene_;
   const FlatScene& flat_;
-  std::vector<Light> lights_;
-  const Accel& accel_;
-  int max_depth_;
-  float eps_;
-  bool has_transparent_ = false;
+  WhittedTracer tracer_;  // the shading core, shared with the Whitted renderer
 };
 
 }  // namespace splitray::gl
