@@ -215,6 +215,36 @@ TEST(MpiAnimate, TwoAndThreeRanksWriteTheSingleProcessFrames) {
   fs::remove_all(dir);
 }
 
+// The hybrid renderer on every rank (its own headless OpenGL context): the frames are the
+// single-process hybrid frames, byte for byte.
+TEST(MpiAnimate, HybridFramesOfTwoRanksAreTheSingleProcessFrames) {
+  REQUIRE_MPI();
+  SPLITRAY_REQUIRE_SHARED(first, kFrames + "/horse-collapse-01.obj.gz");
+  const fs::path dir = fresh_dir();
+  const std::string frames = quote(fs::path(first).parent_path().string());
+  const fs::path one = dir / "hybrid";
+  const Outcome single = run_splitray("animate " + frames + kAnimate + " --mode hybrid --render " +
+                                          quote(one.string()) + " --render-only",
+                                      dir);
+  if (single.status != 0 && single.err.find("OpenGL") != std::string::npos)
+    GTEST_SKIP() << "no usable OpenGL here: " << single.err;
+  ASSERT_EQ(single.status, 0) << single.err;
+  const fs::path whitted = reference_frames(dir, frames);
+  const fs::path out = dir / "ranks2";
+  const Outcome run = mpirun(
+      2, "animate " + frames + kAnimate + " --mode hybrid --render " + quote(out.string()), dir);
+  ASSERT_EQ(run.status, 0) << run.err;
+  bool differs_from_whitted = false;
+  for (int f = 0; f < 5; ++f) {
+    EXPECT_TRUE(read_text(out / frame_name(f)) == read_text(one / frame_name(f)))
+        << "hybrid " << frame_name(f) << " differs from the single-process frame";
+    differs_from_whitted = differs_from_whitted ||
+                           read_text(out / frame_name(f)) != read_text(whitted / frame_name(f));
+  }
+  EXPECT_TRUE(differs_from_whitted) << "--mode hybrid rendered the Whitted frames";
+  fs::remove_all(dir);
+}
+
 TEST(MpiAnimate, ResumeRendersOnlyTheMissingAndBrokenFrames) {
   REQUIRE_MPI();
   SPLITRAY_REQUIRE_SHARED(first, kFrames + "/horse-collapse-01.obj.gz");

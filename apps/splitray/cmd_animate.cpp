@@ -54,13 +54,14 @@ struct AnimateCommand {
   bool refit = false;  // --accel bvh: refit the first frame's BVH instead of predicting splits
   std::string csv, plot, render_dir, results, name;
   int width = 640, height = 480;  // of the --render frames
+  std::string mode = "whitted";   // renderer of the --render frames
   bool render_only = false;       // --render without the comparison of builds (mpirun's way)
   bool resume = false;
   std::size_t run_length = 0;  // frames per hand-out under mpirun, 0 = auto
 };
 
 FrameImageOptions image_options(const AnimateCommand& command) {
-  return {command.render_dir, command.width, command.height, command.accel.build};
+  return {command.render_dir, command.width, command.height, command.accel.build, command.mode};
 }
 
 struct FrameRow {
@@ -630,6 +631,11 @@ void add_animate_command(CLI::App& app) {
       ->check(CLI::Range(1, 16384));
   sub->add_option("-H,--height", command->height, "Height of the --render frames in pixels")
       ->check(CLI::Range(1, 16384));
+  sub->add_option("--mode", command->mode,
+                  "Renderer of the --render frames: whitted (CPU ray tracing) or hybrid (paper "
+                  "002: GPU primary rays and shadow maps + CPU secondary and exact shadow rays, "
+                  "headless OpenGL; also under mpirun, one context per rank)")
+      ->check(CLI::IsMember({"whitted", "hybrid"}));
   sub->add_flag("--render-only", command->render_only,
                 "Only render the frames (predicted kd rebuilds, no comparison of builds): what "
                 "every run under mpirun does, with frames handed out to the ranks");
