@@ -3,6 +3,7 @@
 #include <memory>
 
 #include "build_trace.hpp"
+#include "dist_bench.hpp"
 #include "hybrid_bench.hpp"
 #include "kd_costs.hpp"
 #include "knn_bench.hpp"
@@ -38,6 +39,14 @@ void add_bench_subcommands(CLI::App& bench) {
       "steps and triangle tests fitted to measured trace times (what a step costs in tests)");
   add_kd_costs_options(*kd_costs, *kd_costs_options);
   kd_costs->callback([kd_costs_options] { kd_costs_command(*kd_costs_options); });
+
+  auto dist_options = std::make_shared<DistBenchOptions>();
+  CLI::App* dist = bench.add_subcommand(
+      "dist",
+      "Animation frames across processes: mpirun with 1, 2, 4 ranks against the single process "
+      "(frames/s, communication share, identical images) and a projection to 8-64 nodes");
+  add_dist_bench_options(*dist, *dist_options);
+  dist->callback([dist_options] { dist_bench_command(*dist_options); });
 
   auto knn_options = std::make_shared<KnnBenchOptions>();
   CLI::App* knn = bench.add_subcommand(

@@ -245,6 +245,30 @@ TEST(MpiAnimate, HybridFramesOfTwoRanksAreTheSingleProcessFrames) {
   fs::remove_all(dir);
 }
 
+// `splitray bench dist` end to end on a tiny run: every rank count writes the single process's
+// frames, and the report has its rows and the projection.
+TEST(BenchDist, ReportsIdenticalImagesAndAProjection) {
+  REQUIRE_MPI();
+  SPLITRAY_REQUIRE_SHARED(first, kFrames + "/horse-collapse-01.obj.gz");
+  const fs::path dir = fresh_dir();
+  const fs::path json = dir / "dist.json";
+  const Outcome run = run_splitray(
+      "bench dist --frames-of " + quote(fs::path(first).parent_path().string()) +
+          " --frames 3 -W 48 -H 36 --runs 1 --ranks 2 --json-out " + quote(json.string()),
+      dir);
+  ASSERT_EQ(run.status, 0) << run.err;
+  const auto report = nlohmann::json::parse(read_text(json));
+  ASSERT_EQ(report["rows"].size(), 2u);  // the single process and 2 ranks
+  for (const auto& row : report["rows"]) {
+    EXPECT_TRUE(row["identical_images"].get<bool>()) << row.dump();
+    EXPECT_GT(row["frames_per_s"].get<double>(), 0) << row.dump();
+  }
+  EXPECT_EQ(report["projection"].size(), 4u);
+  EXPECT_NE(report["sequence"].get<std::string>().front(), '/')
+      << "the report names the project-relative path, not " << report["sequence"];
+  fs::remove_all(dir);
+}
+
 TEST(MpiAnimate, ResumeRendersOnlyTheMissingAndBrokenFrames) {
   REQUIRE_MPI();
   SPLITRAY_REQUIRE_SHARED(first, kFrames + "/horse-collapse-01.obj.gz");
