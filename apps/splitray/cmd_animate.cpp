@@ -17,11 +17,14 @@
 #include "commands.hpp"
 #include "dist_animate.hpp"
 #include "file_options.hpp"
+#include "frame_pass.hpp"
 #include "frame_renderer.hpp"
 #include "json_output.hpp"
 #include "options.hpp"
 #include "progress.hpp"
+#include "splitray/accel/animated_accel.hpp"
 #include "splitray/accel/embree/embree_accel.hpp"
+#include "splitray/accel/kd/coherent_builder.hpp"
 #include "splitray/accel/kd/kd_accel.hpp"
 #include "splitray/accel/kd/predicted_builder.hpp"
 #include "splitray/core/errors.hpp"
@@ -49,6 +52,7 @@ struct AnimateCommand {
   PredictorConfig config;
   std::size_t max_frames = 0;
   std::size_t rays = 16384;
+  int pass_width = 1024, pass_height = 768;  // the frame pass (0: none)
   std::uint64_t seed = 1;
   cli::JsonOutput json;
   bool refit = false;  // --accel bvh: refit the first frame's BVH instead of predicting splits
@@ -64,6 +68,14 @@ FrameImageOptions image_options(const AnimateCommand& command) {
   return {command.render_dir, command.width, command.height, command.accel.build, command.mode};
 }
 
+// The frame pass of --pass-width x --pass-height (none when either is 0).
+std::optional<FramePassSetup> frame_pass(const AnimateCommand& command,
+                                         const FrameSequence& sequence,
+                                         const std::vector<Triangle>& first) {
+  if (command.pass_width <= 0 || command.pass_height <= 0) return std::nullopt;
+  return frame_pass_setup(sequence, first, command.pass_width, command.pass_height);
+}
+
 struct FrameRow {
   double build_ms_full = 0, build_ms_predicted = 0, build_ms_sah = 0;
   double sah_full = 0, sah_predicted = 0;
@@ -72,7 +84,32 @@ struct FrameRow {
   double trace_ms_full = 0, trace_ms_predicted = 0;
   std::size_t hit_mismatches = 0;
   PredictedBuildStats predicted;
+  // The strategy run's frame: its update (= build_ms_predicted) and the frame pass's trace.
+  double frame_trace_ms = 0;
+  std::optional<CoherentFrameStats> coherent;  // kd: the coherent rebuild's statistics
 };
+
+// The median over frames 1.. (frame 0 is the initial build) of `value(row)`.
+template <class Value>
+double median_from(const std::vector<FrameRow>& rows, Value value) {
+  std::vector<double> v;
+  for (std::size_t i = rows.size() > 1 ? 1 : 0; i < rows.size(); ++i) v.push_back(value(rows[i]));
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const std::size_t m = v.size() / 2;
+  return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
+}
+
+// median_update_ms, median_trace_ms (the frame pass) and median_frame_ms (of their per-frame
+// sums) of the strategy run, into `summary`.
+void add_frame_medians(Json& summary, const std::vector<FrameRow>& rows) {
+  summary["median_update_ms"] =
+      median_from(rows, [](const FrameRow& r) { return r.build_ms_predicted; });
+  summary["median_trace_ms"] =
+      median_from(rows, [](const FrameRow& r) { return r.frame_trace_ms; });
+  summary["median_frame_ms"] =
+      median_from(rows, [](const FrameRow& r) { return r.build_ms_predicted + r.frame_trace_ms; });
+}
 
 double mean_from(const std::vector<FrameRow>& rows, std::size_t first, double FrameRow::*field) {
   if (rows.size() <= first) first = 0;
@@ -235,10 +272,13 @@ void run_embree(const AnimateCommand& command, const FrameSequence& sequence,
   cli::ProgressBar bar("animate");
   Timer timer;
   const auto scene = make_embree_scene(frames[0], command.accel.build);
+  const std::optional<FramePassSetup> pass = frame_pass(command, sequence, frames[0]);
   ms.push_back(timer.ms());
   for (std::size_t i = 0; i < frames.size(); ++i) {
     if (i > 0) ms.push_back(scene->update(frames[i]));
     rows[i].build_ms_predicted = ms[i];
+    if (pass)
+      rows[i].frame_trace_ms = trace_frame_pass(*pass, sequence, i, *scene, frames[i]).trace_ms;
     if (command.rays > 0) {
       const std::vector<Ray> rays =
           make_rays(frames[i], RayKind::primary, command.seed + i, command.rays);
@@ -256,17 +296,18 @@ void run_embree(const AnimateCommand& command, const FrameSequence& sequence,
   for (std::size_t i = ms.size() > 1 ? 1 : 0; i < ms.size(); ++i) sum += ms[i];
   const double mean = sum / static_cast<double>(ms.size() > 1 ? ms.size() - 1 : 1);
   const std::string builder = scene->stats().builder;
-  const Json summary = {{"frames", frames.size()},
-                        {"triangles", frames[0].size()},
-                        {"accel", "embree"},
-                        {"builder", builder},
-                        {"mean_build_ms", mean},
-                        {"first_build_ms", ms[0]},
-                        {"rays_per_frame", command.rays},
-                        {"trace_mrays_per_s", mrays},
-                        {"threads", effective_threads(command.accel.build.threads)},
-                        {"first_frame", sequence.label(0)},
-                        {"build_ms", ms}};
+  Json summary = {{"frames", frames.size()},
+                  {"triangles", frames[0].size()},
+                  {"accel", "embree"},
+                  {"builder", builder},
+                  {"mean_build_ms", mean},
+                  {"first_build_ms", ms[0]},
+                  {"rays_per_frame", command.rays},
+                  {"trace_mrays_per_s", mrays},
+                  {"threads", effective_threads(command.accel.build.threads)},
+                  {"first_frame", sequence.label(0)},
+                  {"build_ms", ms}};
+  add_frame_medians(summary, rows);
   write_csv_and_plot(command, csv_text(rows, sequence, "embree-" + builder, false));
   if (!command.results.empty())
     write_results(command.results, sequence_name(command, sequence) + "/embree-" + builder,
@@ -411,6 +452,16 @@ void run(AnimateCommand command) {
       r.trace_ms_predicted = f.trace_ms_refit;
       r.hit_mismatches = f.hit_mismatches;
     }
+    // The frame pass through the refitted BVH (the same refits, by the animation interface).
+    if (const std::optional<FramePassSetup> pass = frame_pass(command, sequence, frames[0])) {
+      BuildConfig config = command.accel.build;
+      const auto refitted = make_animated_accel("bvh-refit", config);
+      for (std::size_t i = 0; i < frames.size(); ++i) {
+        AnimationFrameStats stats;
+        const Accel& accel = refitted->next_frame(frames[i], stats);
+        rows[i].frame_trace_ms = trace_frame_pass(*pass, sequence, i, accel, frames[i]).trace_ms;
+      }
+    }
     FrameRenderer renderer(sequence, frames[0], image_options(command));
     for (std::size_t i = 0; i < frames.size(); ++i) renderer.render(i, frames[i]);
     const std::string builder =
@@ -427,7 +478,10 @@ void run(AnimateCommand command) {
   kd_builder(base.builder);  // an unknown name fails here
   BuildConfig sah = base;
   sah.builder = "sah";
-  SplitPredictor predictor(command.config);
+  BuildConfig golden = base;  // the coherent rebuild's from-scratch builder
+  golden.builder = "golden";
+  KdCoherentBuilder coherent(golden, command.config);
+  const std::optional<FramePassSetup> pass = frame_pass(command, sequence, frames[0]);
   std::vector<FrameRow> rows(frames.size());
   FrameRenderer renderer(sequence, frames[0], image_options(command));
   cli::ProgressBar bar("animate");
@@ -444,8 +498,18 @@ void run(AnimateCommand command) {
         full = make_kd(tris, base);
         row.build_ms_full = timer.ms();
       } else {
-        predicted = make_kd_predicted(tris, base, predictor, row.predicted);
+        CoherentFrameStats c;
+        predicted = coherent.next_frame(tris, c);
         row.build_ms_predicted = timer.ms();
+        row.coherent = c;
+        row.predicted.predicted_nodes = c.reoptimised_nodes;
+        row.predicted.searched_nodes = c.reoptimised_nodes + (c.from_scratch ? 0 : c.reused_nodes);
+        row.predicted.errors = c.forecasts;
+        row.predicted.mean_error = c.mean_error;
+        row.predicted.max_error = c.max_error;
+        row.predicted.root_axis = c.root_axis;
+        row.predicted.root_actual = c.root_actual;
+        row.predicted.root_predicted = c.root_predicted;
       }
     }
     Timer timer;
@@ -477,11 +541,49 @@ void run(AnimateCommand command) {
         row.hit_mismatches +=
             hits_full[r].prim != hits_predicted[r].prim || hits_full[r].t != hits_predicted[r].t;
     }
+    if (pass) row.frame_trace_ms = trace_frame_pass(*pass, sequence, i, *predicted, tris).trace_ms;
     renderer.render(i, tris);
     bar.update(static_cast<double>(i + 1) / frames.size());
   }
   bar.finish();
   report(command, sequence, frames, rows, base.builder);
+}
+
+// The coherent rebuild's frames 1..: per frame its nodes by origin, its time's parts, and the
+// frames it built from scratch (with why).
+Json coherent_summary(const std::vector<FrameRow>& rows) {
+  Json frames = Json::array();
+  double reused = 0, reoptimised = 0, rebuilt = 0, counted = 0;
+  std::size_t scratch = 0;
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const auto& c = rows[i].coherent;
+    if (!c) continue;
+    frames.push_back({{"frame", i},
+                      {"reused_nodes", c->reused_nodes},
+                      {"reoptimised_nodes", c->reoptimised_nodes},
+                      {"rebuilt_nodes", c->rebuilt_nodes},
+                      {"rebuilt_subtrees", c->rebuilt_subtrees},
+                      {"from_scratch", c->from_scratch},
+                      {"reason", c->reason},
+                      {"distribute_ms", c->distribute_ms},
+                      {"search_ms", c->search_ms},
+                      {"rebuild_ms", c->rebuild_ms},
+                      {"predict_ms", c->predict_ms},
+                      {"layout_ms", c->layout_ms},
+                      {"total_ms", c->total_ms}});
+    if (i == 0) continue;
+    const double nodes =
+        static_cast<double>(c->reused_nodes + c->reoptimised_nodes + c->rebuilt_nodes);
+    reused += c->reused_nodes / nodes, reoptimised += c->reoptimised_nodes / nodes;
+    rebuilt += c->rebuilt_nodes / nodes, counted += 1;
+    scratch += c->from_scratch;
+  }
+  if (counted == 0) return Json();
+  return {{"mean_reused_share", reused / counted},
+          {"mean_reoptimised_share", reoptimised / counted},
+          {"mean_rebuilt_share", rebuilt / counted},
+          {"scratch_frames", scratch},
+          {"frames", frames}};
 }
 
 // Summary, CSV, plot and results of the per-frame rows: kd rebuilds (full = from scratch,
@@ -551,6 +653,12 @@ void report(const AnimateCommand& command, const FrameSequence& sequence,
       {"threads", effective_threads(command.accel.build.threads)},
       {"first_frame", sequence.label(0)},
   };
+  add_frame_medians(summary, rows);
+  summary["frame_pass"] = command.pass_width > 0 && command.pass_height > 0
+                              ? Json(fmt::format("{}x{} primary + 1 shadow ray per hit",
+                                                 command.pass_width, command.pass_height))
+                              : Json();
+  summary["coherent"] = command.refit ? Json() : coherent_summary(rows);
   if (!command.results.empty())
     write_results(command.results,
                   sequence_name(command, sequence) + "/" +
@@ -560,17 +668,29 @@ void report(const AnimateCommand& command, const FrameSequence& sequence,
   if (command.json.print) return;
   if (command.refit)
     fmt::print("full = rebuilt, pred = refitted ({}), sah = sbvh rebuilt\n", builder);
-  fmt::print("{:>5} {:>10} {:>10} {:>10} {:>9} {:>9} {:>8} {:>9} {:>9} {:>8} {:>8} {:>9} {:>9}\n",
-             "frame", "full_ms", "pred_ms", "sah_ms", "sah_full", "sah_pred", "nodes", "evals_f",
-             "evals_p", "err_mean", "err_max", "trace_f", "trace_p");
+  fmt::print(
+      "{:>5} {:>10} {:>10} {:>10} {:>9} {:>9} {:>8} {:>9} {:>9} {:>8} {:>8} {:>9} {:>9} {:>9}\n",
+      "frame", "full_ms", "pred_ms", "sah_ms", "sah_full", "sah_pred", "nodes", "evals_f",
+      "evals_p", "err_mean", "err_max", "trace_f", "trace_p", "pass_ms");
   for (std::size_t i = 0; i < rows.size(); ++i) {
     const FrameRow& r = rows[i];
     fmt::print(
         "{:5d} {:10.3f} {:10.3f} {:10.3f} {:9.3f} {:9.3f} {:8d} {:9d} {:9d} {:8.4f} {:8.4f} "
-        "{:9.3f} {:9.3f}\n",
+        "{:9.3f} {:9.3f} {:9.3f}\n",
         i, r.build_ms_full, r.build_ms_predicted, r.build_ms_sah, r.sah_full, r.sah_predicted,
         r.nodes_predicted, r.evals_full, r.evals_predicted, r.predicted.mean_error,
-        r.predicted.max_error, r.trace_ms_full, r.trace_ms_predicted);
+        r.predicted.max_error, r.trace_ms_full, r.trace_ms_predicted, r.frame_trace_ms);
+  }
+  if (!command.refit) {  // the coherent rebuild, frame by frame
+    fmt::print(
+        "coherent rebuild: nodes reused / re-optimised / rebuilt (subtrees), CPU ms of "
+        "distribution / local search / rebuilt subtrees / filters / layout\n");
+    for (std::size_t i = 0; i < rows.size(); ++i)
+      if (const auto& c = rows[i].coherent)
+        fmt::print("{:5d} {:8d} {:6d} {:8d} ({:5d}) {:8.2f} {:7.2f} {:8.2f} {:6.2f} {:7.2f}  {}\n",
+                   i, c->reused_nodes, c->reoptimised_nodes, c->rebuilt_nodes, c->rebuilt_subtrees,
+                   c->distribute_ms, c->search_ms, c->rebuild_ms, c->predict_ms, c->layout_ms,
+                   c->reason);
   }
   std::vector<std::pair<std::string, std::string>> table;
   for (const auto& [key, value] : summary.items())
@@ -599,6 +719,14 @@ void add_animate_command(CLI::App& app) {
   sub->add_option("--frames", command->max_frames, "Use only the first N frames (0 = all)");
   sub->add_option("--rays", command->rays, "Primary rays per frame for trace_ratio (0 = none)");
   sub->add_option("--seed", command->seed, "Seed of the ray sets");
+  sub->add_option("--pass-width", command->pass_width,
+                  "Frame time: width of the primary pass traced every frame (plus one shadow ray "
+                  "per hit towards the light), reported as median_trace_ms; 0 = none")
+      ->check(CLI::Range(0, 16384))
+      ->capture_default_str();
+  sub->add_option("--pass-height", command->pass_height, "Frame time: height of that pass")
+      ->check(CLI::Range(0, 16384))
+      ->capture_default_str();
   sub->add_option("--sigmas", command->config.sigmas,
                   "Bracket half width in predicted standard deviations");
   sub->add_option("--min-bracket", command->config.min_half_width,

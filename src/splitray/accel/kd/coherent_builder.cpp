@@ -640,6 +640,21 @@ std::unique_ptr<KdAccel> KdCoherentBuilder::next_frame(std::span<const Triangle>
     stats.from_scratch = true;
     stats.reason = "the root's cost drifted";
   }
+  double error_sum = 0;
+  for (const SplitObservation& o : counters.observations) {
+    if (o.path == kRootPath) {
+      const double lo = bounds.lo[o.axis], extent = static_cast<double>(bounds.hi[o.axis]) - lo;
+      stats.root_axis = o.axis;
+      stats.root_actual = lo + o.fraction * extent;
+      if (o.predicted) stats.root_predicted = lo + *o.predicted * extent;
+    }
+    if (!o.predicted) continue;
+    const double e = std::abs(o.fraction - *o.predicted);
+    error_sum += e;
+    stats.max_error = std::max(stats.max_error, e);
+    ++stats.forecasts;
+  }
+  if (stats.forecasts > 0) stats.mean_error = error_sum / static_cast<double>(stats.forecasts);
   const Timer predict;
   std::sort(counters.observations.begin(), counters.observations.end(),
             [](const SplitObservation& a, const SplitObservation& b) { return a.path < b.path; });

@@ -9,6 +9,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 
@@ -30,6 +31,13 @@ struct CoherentFrameStats {
   double predict_ms = 0, distribute_ms = 0, search_ms = 0, rebuild_ms = 0, layout_ms = 0;
   double total_ms = 0;  // wall time of the whole frame, layout included
   double sah_cost = 0;  // of the finished tree (sah_cost.hpp), with the config's K_T and K_I
+  // The filters' forecasts at the re-searched nodes: |searched - forecast| split position in
+  // fractions of the cell (over `forecasts` nodes), and the root's split and forecast in world
+  // coordinates (paper 000 Fig. 7).
+  std::size_t forecasts = 0;
+  double mean_error = 0, max_error = 0;
+  int root_axis = -1;
+  std::optional<double> root_actual, root_predicted;
 };
 
 // When a kept part of the tree is made afresh. The defaults keep the SAH cost within 1-4% of
