@@ -369,6 +369,33 @@ TEST_F(Cli, TraceIsReproducibleAndIndependentOfThreads) {
   EXPECT_NE(one["id_checksum"], other["id_checksum"]) << "another seed should cast other rays";
 }
 
+// animate --compare: every strategy on the same frames, the frame-time keys, no hit differing
+// from the kd rebuild's among our structures, and the kd run's frame-time keys.
+TEST_F(Cli, AnimateComparesEveryStrategyOnTheSameFrames) {
+  SPLITRAY_REQUIRE_SHARED(first, "anim_horse_collapse/frames/horse-collapse-01.obj.gz");
+  const std::string frames =
+      quote((fs::path(first).parent_path() / "horse-collapse-%02d.obj.gz").string());
+  const json all =
+      run_json("animate " + frames + " --frames 3 -t 2 --compare --pass-width 64 --pass-height 48");
+  EXPECT_EQ(all.value("frames", 0), 3);
+  ASSERT_TRUE(all.contains("strategies"));
+  for (const char* name : {"kd-coherent", "kd-rebuild", "bvh-refit", "bvh-rebuild", "embree-refit",
+                           "embree-low", "embree-medium"}) {
+    ASSERT_TRUE(all["strategies"].contains(name)) << name;
+    const json& s = all["strategies"][name];
+    for (const char* key : {"median_update_ms", "median_trace_ms", "median_frame_ms"})
+      EXPECT_GT(s.value(key, 0.0), 0.0) << name << " " << key;
+    EXPECT_GT(s.value("frame_ms_vs_best_embree", 0.0), 0.0) << name;
+    if (s.value("exact", false)) EXPECT_EQ(s.value("hit_mismatches", -1), 0) << name;
+  }
+  const json kd =
+      run_json("animate " + frames + " --frames 3 -t 1 --rays 0 --pass-width 64 --pass-height 48");
+  for (const char* key : {"median_update_ms", "median_trace_ms", "median_frame_ms"})
+    EXPECT_GT(kd.value(key, 0.0), 0.0) << key;
+  ASSERT_TRUE(kd["coherent"].is_object());
+  EXPECT_EQ(kd["coherent"]["frames"].size(), 3u);
+}
+
 // animate --accel bvh --refit on a real sequence: the kd run's summary keys, refitted trees
 // that answer every ray as the rebuilt ones, and a results table that keeps the prose around it.
 TEST_F(Cli, AnimateRefitsABvhOnHorseCollapse) {

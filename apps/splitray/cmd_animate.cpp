@@ -13,6 +13,7 @@
 #include <optional>
 #include <sstream>
 
+#include "animate_compare.hpp"
 #include "animate_refit.hpp"
 #include "commands.hpp"
 #include "dist_animate.hpp"
@@ -59,7 +60,9 @@ struct AnimateCommand {
   std::string csv, plot, render_dir, results, name;
   int width = 640, height = 480;  // of the --render frames
   std::string mode = "whitted";   // renderer of the --render frames
-  bool render_only = false;       // --render without the comparison of builds (mpirun's way)
+  bool compare = false;           // every animation strategy on the same frames
+  std::vector<std::string> strategies;
+  bool render_only = false;  // --render without the comparison of builds (mpirun's way)
   bool resume = false;
   std::size_t run_length = 0;  // frames per hand-out under mpirun, 0 = auto
 };
@@ -327,6 +330,40 @@ void report(const AnimateCommand& command, const FrameSequence& sequence,
             const std::vector<std::vector<Triangle>>& frames, const std::vector<FrameRow>& rows,
             const std::string& builder);
 
+// --compare: every strategy of the animation interface on the same frames (animate_compare.hpp).
+void run_compare(const AnimateCommand& command, const FrameSequence& sequence,
+                 const std::vector<std::vector<Triangle>>& frames) {
+  CompareOptions options;
+  options.strategies = command.strategies;
+  options.build = command.accel.build;
+  options.predictor = command.config;
+  options.pass = frame_pass_setup(sequence, frames[0], std::max(command.pass_width, 1),
+                                  std::max(command.pass_height, 1));
+  cli::ProgressBar bar("compare");
+  const CompareResult result =
+      compare_strategies(sequence, frames, options, [&](double done) { bar.update(done); });
+  bar.finish();
+  if (!command.csv.empty()) write_file_atomically(command.csv, result.csv);
+  if (!command.plot.empty()) {
+    const fs::path tmp =
+        fs::temp_directory_path() / fmt::format("splitray-compare-{}.csv", ::getpid());
+    write_file_atomically(tmp.string(), result.csv);
+    try {
+      run_plot_script("plot_frame_times.py", command.plot, tmp.string());
+    } catch (...) {
+      fs::remove(tmp);
+      throw;
+    }
+    fs::remove(tmp);
+  }
+  Json summary = result.summary;
+  summary["sequence"] = sequence_name(command, sequence);
+  summary["threads"] = effective_threads(command.accel.build.threads);
+  summary["first_frame"] = sequence.label(0);
+  cli::emit_json(command.json, summary);
+  if (!command.json.print) fmt::print("{}", result.markdown);
+}
+
 // --render-only, --resume and every run under mpirun: the frames rendered only, handed out
 // to the ranks (dist_animate.hpp); rank 0 reports.
 void run_render(const AnimateCommand& command, const FrameSequence& sequence) {
@@ -426,6 +463,7 @@ void run(AnimateCommand command) {
     frames = load_frames(sequence, command.max_frames);
   }
   const ThreadLimit limit(command.accel.build.threads);
+  if (command.compare) return run_compare(command, sequence, frames);
   if (command.refit && command.accel.accel != "bvh")
     throw Error("--refit", "only BVHs refit (--accel bvh --refit); kd-trees are rebuilt");
   if (command.accel.accel == "embree") return run_embree(command, sequence, frames);
@@ -719,6 +757,14 @@ void add_animate_command(CLI::App& app) {
   sub->add_option("--frames", command->max_frames, "Use only the first N frames (0 = all)");
   sub->add_option("--rays", command->rays, "Primary rays per frame for trace_ratio (0 = none)");
   sub->add_option("--seed", command->seed, "Seed of the ray sets");
+  sub->add_flag("--compare", command->compare,
+                "Run every animation strategy (kd-coherent, kd-rebuild, bvh-refit, bvh-rebuild, "
+                "embree-refit, embree-low, embree-medium) on the same frames: median update, "
+                "trace and frame ms, SAH cost, hit mismatches; Markdown table, --json, --csv, "
+                "--plot (update and trace time per frame)");
+  sub->add_option("--strategies", command->strategies,
+                  "With --compare: only these strategies (default: all)")
+      ->check(CLI::IsMember(animation_strategy_names()));
   sub->add_option("--pass-width", command->pass_width,
                   "Frame time: width of the primary pass traced every frame (plus one shadow ray "
                   "per hit towards the light), reported as median_trace_ms; 0 = none")
