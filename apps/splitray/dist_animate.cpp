@@ -8,7 +8,7 @@
 #include <string_view>
 #include <utility>
 
-#include "splitray/accel/kd/predicted_builder.hpp"
+#include "splitray/accel/kd/coherent_builder.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/core/image.hpp"
 #include "splitray/core/timer.hpp"
@@ -111,8 +111,8 @@ AnimationRender render_animation(const FrameSequence& sequence,
   };
 
   BuildConfig build = options.build;
-  if (build.builder.empty()) build.builder = "golden";
-  SplitPredictor predictor(options.predictor);
+  build.builder = "golden";  // the coherent rebuild's from-scratch builder
+  KdCoherentBuilder coherent(build, options.predictor);
   std::optional<std::size_t> last;  // this rank's last frame built, if it succeeded
   const auto work = [&](std::size_t unit) {
     FrameHeader header;
@@ -120,7 +120,7 @@ AnimationRender render_animation(const FrameSequence& sequence,
     const std::size_t frame = todo[unit];
     const bool follows = last && *last + 1 == frame;
     last.reset();
-    if (!follows) predictor.clear();
+    if (!follows) coherent.reset();
     header.predicted = follows;
     Timer timer;
     const std::vector<Triangle> tris = sequence.load(frame);
@@ -132,8 +132,8 @@ AnimationRender render_animation(const FrameSequence& sequence,
     header.load_ms = timer.ms();
     timer.reset();
     const FlatScene flat = flatten(renderer->scene(tris));
-    PredictedBuildStats stats;
-    auto accel = make_kd_predicted(flat.triangles, build, predictor, stats);
+    CoherentFrameStats stats;
+    std::unique_ptr<Accel> accel = coherent.next_frame(flat.triangles, stats);
     header.build_ms = timer.ms();
     timer.reset();
     const Image image = renderer->image(frame, std::move(accel), header.rays);

@@ -66,8 +66,13 @@ MeshUpdate MeshScene::update(const MeshBuffers& moved, const std::string& where)
   if (accel_->refit(tris)) {
     how = MeshUpdate::refit;
   } else if (accel_name_ == "kd") {
-    PredictedBuildStats stats;
-    accel_ = make_kd_predicted(tris, config_, predictor_, stats);
+    if (!coherent_) {
+      BuildConfig golden = config_;
+      golden.builder = "golden";
+      coherent_ = std::make_unique<KdCoherentBuilder>(golden, PredictorConfig{});
+    }
+    CoherentFrameStats stats;
+    accel_ = coherent_->next_frame(tris, stats);
     how = MeshUpdate::predicted_rebuild;
   } else {
     accel_ = make_accel(accel_name_, tris, config_);

@@ -14,7 +14,7 @@
 #include <string>
 
 #include "splitray/accel/accel.hpp"
-#include "splitray/accel/kd/predicted_builder.hpp"
+#include "splitray/accel/kd/coherent_builder.hpp"
 #include "splitray/accel/mesh_buffers.hpp"
 #include "splitray/accel/predict/split_predictor.hpp"
 
@@ -45,8 +45,9 @@ class MeshScene {
 
   // Moves the scene to new positions of the same vertices (same vertex and triangle counts and
   // indices; `moved` replaces the buffers kept). How: a refit where the structure refits (bvh,
-  // embree with builder "refit"); for kd a rebuild steered by the Kalman-filtered splits of
-  // the previous frames (paper 000, builder golden+kalman); else a full rebuild.
+  // embree with builder "refit"); for kd the coherent rebuild from the previous update's tree
+  // and the Kalman-filtered splits (kd/coherent_builder.hpp, "predicted_rebuild"); else a full
+  // rebuild.
   MeshUpdate update(const MeshBuffers& moved, const std::string& where = "mesh buffers");
 
   const Accel& accel() const { return *accel_; }
@@ -61,7 +62,7 @@ class MeshScene {
   std::string accel_name_;
   BuildConfig config_;
   std::unique_ptr<Accel> accel_;
-  SplitPredictor predictor_;  // kd only: the split history of the frames so far
+  std::unique_ptr<KdCoherentBuilder> coherent_;  // kd only: the frames so far
 };
 
 }  // namespace splitray

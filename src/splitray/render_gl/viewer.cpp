@@ -10,7 +10,7 @@
 #define GLFW_INCLUDE_NONE
 #include <GLFW/glfw3.h>
 
-#include "splitray/accel/kd/predicted_builder.hpp"
+#include "splitray/accel/kd/coherent_builder.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/core/parallel.hpp"
 #include "splitray/core/timer.hpp"
@@ -182,7 +182,7 @@ Scene animation_scene(const std::vector<Triangle>& first_frame) {
 ViewerSummary run_viewer(const Scene& scene, const ViewerOptions& options) {
   const bool animated = options.frames.size() > 1;
   if (animated && options.hybrid.accel != "kd")
-    throw Error("--accel", "animations are rebuilt by the predicted kd builder: use --accel kd");
+    throw Error("--accel", "animations are rebuilt by the coherent kd rebuild: use --accel kd");
   const HybridOptions& ho = options.hybrid;
   Window window(ho.width, ho.height, "splitray view");
   GLint major = 0, minor = 0;
@@ -212,7 +212,9 @@ ViewerSummary run_viewer(const Scene& scene, const ViewerOptions& options) {
   glfwSetWindowUserPointer(window.get(), &controls);
   install_callbacks(window.get());
 
-  SplitPredictor predictor(options.predictor);
+  BuildConfig golden = ho.build;  // the coherent rebuild's from-scratch builder
+  golden.builder = "golden";
+  KdCoherentBuilder coherent(golden, options.predictor);
   std::size_t animation_frame = 0;
   double build_ms = 0;
   bool paused = false, overlay_on = options.overlay;
@@ -265,7 +267,7 @@ ViewerSummary run_viewer(const Scene& scene, const ViewerOptions& options) {
                       on_off(o.refine_shadows), on_off(o.secondary), on_off(o.interleaved)),
       };
       if (animated)
-        lines.push_back(fmt::format("animation frame {}/{}  predicted kd rebuild {:.1f} ms  [Space] {}",
+        lines.push_back(fmt::format("animation frame {}/{}  coherent kd rebuild {:.1f} ms  [Space] {}",
                                     animation_frame + 1, options.frames.size(), build_ms,
                                     paused ? "play" : "pause"));
       lines.push_back("mouse: left orbit, right pan, wheel zoom  WASD/QE move");
@@ -301,11 +303,11 @@ ViewerSummary run_viewer(const Scene& scene, const ViewerOptions& options) {
     // Frame 0 is the scene itself; every later frame is rebuilt from the predictions.
     if (animated && !paused && submitted > 0) {
       animation_frame = (animation_frame + 1) % options.frames.size();
-      if (animation_frame == 0) predictor.clear();  // the loop jumps back: old tracks mislead
+      if (animation_frame == 0) coherent.reset();  // the loop jumps back: a fresh tree
       const Timer build_timer;
-      PredictedBuildStats stats;
+      CoherentFrameStats stats;
       renderer.set_triangles(options.frames[animation_frame], [&](std::span<const Triangle> tris) {
-        return std::unique_ptr<Accel>(make_kd_predicted(tris, ho.build, predictor, stats));
+        return std::unique_ptr<Accel>(coherent.next_frame(tris, stats));
       });
       build_ms = build_timer.ms();
     }
