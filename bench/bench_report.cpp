@@ -124,6 +124,26 @@ double median(std::vector<double> values) {
   return n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
 }
 
+// The SAH constants of a build-trace run: given for every structure, or each one's default.
+std::string sah_settings(const Json& settings) {
+  const auto given = [&](const char* key) {
+    return settings.contains(key) && !settings[key].is_null();
+  };
+  if (given("traversal_cost") || given("intersection_cost") || !settings.contains("sah_defaults"))
+    return fmt::format(
+        "K_T = {}, K_I = {}",
+        given("traversal_cost") ? fmt::format("{}", settings["traversal_cost"].get<double>())
+                                : "each structure's",
+        given("intersection_cost") ? fmt::format("{}", settings["intersection_cost"].get<double>())
+                                   : "each structure's");
+  const Json& d = settings["sah_defaults"];
+  return fmt::format(
+      "each structure's defaults, kd K_T = {}, K_I = {}, BIH and BVH K_T = {}, "
+      "K_I = {} (the SAH cost column is at the row's structure's constants)",
+      d["kd"][0].get<double>(), d["kd"][1].get<double>(), d["others"][0].get<double>(),
+      d["others"][1].get<double>());
+}
+
 std::string markdown_report(const Json& report) {
   const Json& machine = report["machine"];
   const Json& settings = report["settings"];
@@ -131,14 +151,13 @@ std::string markdown_report(const Json& report) {
   out += fmt::format(
       "Measured {} on {} ({} threads of {}), {}, Embree {}; load average {:.1f} at the start, "
       "{:.1f} at the end. Medians of {} runs after a warm-up; {} rays per kind (seed {}), the "
-      "same rays for every structure; SAH constants K_T = {}, K_I = {}.\n\n",
+      "same rays for every structure; SAH constants: {}.\n\n",
       machine["date_utc"].get<std::string>(), machine["cpu"].get<std::string>(),
       machine["threads"].get<int>(), machine["hardware_threads"].get<int>(),
       machine["compiler"].get<std::string>(), machine["embree"].get<std::string>(),
       machine["load_average_start"].get<double>(), machine.value("load_average_end", -1.0),
       settings["runs"].get<int>(), settings["rays_per_kind"].get<std::uint64_t>(),
-      settings["seed"].get<std::uint64_t>(), settings.value("traversal_cost", 15.0),
-      settings.value("intersection_cost", 20.0));
+      settings["seed"].get<std::uint64_t>(), sah_settings(settings));
   out +=
       "Ratios (×) are to **Embree medium** (its default build quality) on the same mesh in the "
       "same run: build time (lower is better) and throughput (higher is better). *1-ray*: the "
@@ -148,7 +167,8 @@ std::string markdown_report(const Json& report) {
       "(Embree is not watertight and breaks ties differently, so a few rays may differ).\n\n";
 
   out +=
-      "## Build\n\n| mesh | triangles | structure | build ms | × Embree | SAH cost | cost evals | "
+      "## Build\n\n| mesh | triangles | structure | build ms | × Embree | SAH cost (K_T/K_I) | "
+      "cost evals | "
       "nodes | memory |\n";
   out += "|---|--:|---|--:|--:|--:|--:|--:|--:|\n";
   for (const Json& mesh : report["meshes"]) {
@@ -161,13 +181,16 @@ std::string markdown_report(const Json& report) {
                            row["error"].get<std::string>());
         continue;
       }
-      out += fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
-                         mesh["name"].get<std::string>(), number(mesh["triangles"]), structure,
-                         number(row["build_ms"]),
-                         row.contains("build_ratio") ? number(row["build_ratio"]) : "–",
-                         number(row["sah_cost"], "{:.1f}"), number(row["cost_evals"]),
-                         row["nodes"].get<std::uint64_t>() ? number(row["nodes"]) : "–",
-                         mib(row["bytes"].get<std::uint64_t>()));
+      out += fmt::format(
+          "| {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", mesh["name"].get<std::string>(),
+          number(mesh["triangles"]), structure, number(row["build_ms"]),
+          row.contains("build_ratio") ? number(row["build_ratio"]) : "–",
+          row["sah_cost"].is_null()
+              ? std::string("–")
+              : fmt::format("{} ({}/{})", number(row["sah_cost"], "{:.1f}"),
+                            row["sah_kt"].get<double>(), row["sah_ki"].get<double>()),
+          number(row["cost_evals"]), row["nodes"].get<std::uint64_t>() ? number(row["nodes"]) : "–",
+          mib(row["bytes"].get<std::uint64_t>()));
     }
   }
 

@@ -11,6 +11,7 @@
 #include "bench_meshes.hpp"
 #include "bench_report.hpp"
 #include "machine.hpp"
+#include "sah_options.hpp"
 #include "splitray/accel/accel.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/core/image.hpp"
@@ -201,15 +202,7 @@ void add_build_trace_options(CLI::App& command, BuildTraceOptions& options) {
   command.add_option("--threads", options.threads, "Worker threads (0 = all cores)")
       ->check(CLI::NonNegativeNumber);
   command.add_option("--seed", options.seed, "Seed of the ray sets");
-  command
-      .add_option("--kt", options.traversal_cost,
-                  "SAH cost of traversing a node (K_T) for every structure")
-      ->check(CLI::PositiveNumber)
-      ->capture_default_str();
-  command
-      .add_option("--ki", options.intersection_cost, "SAH cost of intersecting a triangle (K_I)")
-      ->check(CLI::PositiveNumber)
-      ->capture_default_str();
+  cli::add_sah_options(command, options.traversal_cost, options.intersection_cost);
   cli::add_json_options(command, options.json, "the full report");
   command.add_option("--markdown", options.markdown_path,
                      "Write the Markdown tables to this file (default: print them)");
@@ -232,15 +225,22 @@ Json run_build_trace(const BuildTraceOptions& options) {
   Json report;
   report["benchmark"] = "build-trace";
   report["machine"] = machine_json(options.threads);
-  report["settings"] = {{"runs", runs},
-                        {"rays_per_kind", ray_count},
-                        {"seed", options.seed},
-                        {"traversal_cost", options.traversal_cost},
-                        {"intersection_cost", options.intersection_cost},
-                        {"kinds", {"primary", "diffuse"}},
-                        {"ratios_to", "embree medium (same mesh, same run, same rays)"},
-                        {"checksum_reference", "kd sah"},
-                        {"quick", options.quick}};
+  report["settings"] = {
+      {"runs", runs},
+      {"rays_per_kind", ray_count},
+      {"seed", options.seed},
+      // null = each structure's default, below (every row has its own
+      // sah_kt, sah_ki)
+      {"traversal_cost", options.traversal_cost ? Json(*options.traversal_cost) : Json(nullptr)},
+      {"intersection_cost",
+       options.intersection_cost ? Json(*options.intersection_cost) : Json(nullptr)},
+      {"sah_defaults",
+       {{"kd", {kKdSah.traversal, kKdSah.intersection}},
+        {"others", {kSharedSah.traversal, kSharedSah.intersection}}}},
+      {"kinds", {"primary", "diffuse"}},
+      {"ratios_to", "embree medium (same mesh, same run, same rays)"},
+      {"checksum_reference", "kd sah"},
+      {"quick", options.quick}};
   Json mesh_reports = Json::array();
   for (std::size_t m = 0; m < meshes.size(); ++m) {
     const BenchMesh& mesh = meshes[m];

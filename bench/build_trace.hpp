@@ -23,9 +23,9 @@ struct BuildTraceOptions {
   bool quick = false;  // smoke test: 2 vendored meshes, 1 run, 64k rays
   int threads = 0;     // 0 = all cores
   std::uint64_t seed = 1;
-  // SAH constants of the kd builds (and of every tree's reported SAH cost).
-  float traversal_cost = BuildConfig{}.traversal_cost;
-  float intersection_cost = BuildConfig{}.intersection_cost;
+  // SAH constants of every build (and of every tree's reported SAH cost); unset = each
+  // structure's own default (kd: kKdSah, the others: kSharedSah).
+  std::optional<float> traversal_cost, intersection_cost;
   cli::JsonOutput json;
   std::string markdown_path;
   std::string plot_path;  // PNG of the ratios to Embree (scripts/plot_build_trace.py)

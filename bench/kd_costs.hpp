@@ -14,13 +14,14 @@
 #include <vector>
 
 #include "json_output.hpp"
+#include "splitray/accel/accel.hpp"
 
 namespace splitray::bench {
 
 struct KdCostsOptions {
   std::vector<std::string> meshes;  // names (or files); empty = all benchmark meshes present
   std::vector<float> kt = {5, 10, 15, 20, 30, 45, 60, 90};  // K_T values to build with
-  float ki = 20;                                            // K_I, fixed
+  float ki = kKdSah.intersection;                           // K_I, fixed
   std::string builder = "binned";  // the trees' builder (the fit is about traversal)
   std::size_t rays = 1u << 18;     // rays per kind
   int runs = 3;                    // timed passes per tree and kind (median)

@@ -147,6 +147,9 @@ Json tree_json(const AccelStats& s) {
   Json j{{"builder", s.builder},
          {"build_ms", s.build_ms},
          {"sah_cost", s.sah_cost ? Json(*s.sah_cost) : Json(nullptr)},
+         // The constants sah_cost was computed with (kd's own defaults, or the BVH's).
+         {"sah_kt", s.sah_cost ? Json(s.sah_traversal_cost) : Json(nullptr)},
+         {"sah_ki", s.sah_cost ? Json(s.sah_intersection_cost) : Json(nullptr)},
          {"nodes", s.nodes},
          {"leaves", s.leaves},
          {"max_depth", s.max_depth},

@@ -79,9 +79,17 @@ def main():
     axes[-1].set_xticklabels(names, rotation=30, ha="right")
     machine = report.get("machine", {})
     settings = report.get("settings", {})
+    def sah_label(settings):
+        # The constants given for every structure, else each structure's default.
+        kt, ki = settings.get("traversal_cost"), settings.get("intersection_cost")
+        defaults = settings.get("sah_defaults")
+        if kt is None and ki is None and defaults:
+            return (f"K_T/K_I: kd {defaults['kd'][0]:g}/{defaults['kd'][1]:g}, "
+                    f"others {defaults['others'][0]:g}/{defaults['others'][1]:g}")
+        return f"K_T = {kt}, K_I = {ki}"
     fig.suptitle(f"splitray bench build-trace: {machine.get('cpu', '')}, "
                  f"{machine.get('threads', '')} threads, {machine.get('date_utc', '')}, "
-                 f"K_T = {settings.get('traversal_cost', '')}, K_I = {settings.get('intersection_cost', '')}",
+                 f"{sah_label(settings)}",
                  fontsize=10)
     fig.tight_layout()
     fig.savefig(args.out, dpi=100)

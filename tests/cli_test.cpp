@@ -312,6 +312,23 @@ TEST_F(Cli, BuildJsonHasEveryKey) {
   const Result table = run("build " + quote(horse()) + " --accel kd");
   EXPECT_EQ(table.status, 0) << table.err;
   EXPECT_NE(table.out.find("sah_cost"), std::string::npos) << table.out;
+  EXPECT_NE(table.out.find("(K_T = 70, K_I = 20)"), std::string::npos) << table.out;
+}
+
+// The SAH cost names its constants: kd's own defaults, BIH's and BVH's 15 / 20, and --kt / --ki
+// when given.
+TEST_F(Cli, BuildReportsThePerStructureSahConstants) {
+  for (const auto& [accel, kt] : {std::pair{"kd", 70}, {"bih", 15}, {"bvh", 15}}) {
+    const json stats = run_json("build " + quote(horse()) + " --accel " + accel);
+    EXPECT_EQ(stats["sah_kt"], kt) << accel;
+    EXPECT_EQ(stats["sah_ki"], 20) << accel;
+    const json given =
+        run_json("build " + quote(horse()) + " --accel " + accel + " --kt 30 --ki 10");
+    EXPECT_EQ(given["sah_kt"], 30) << accel;
+    EXPECT_EQ(given["sah_ki"], 10) << accel;
+  }
+  const Result help = run("build --help");
+  EXPECT_NE(help.out.find("default: kd 70"), std::string::npos) << help.out;
 }
 
 // `trace` with kd and brute prints identical hits, id_checksum and sum_t.

@@ -152,7 +152,8 @@ TEST(KdAxisCost, IsTheSahOfTheTwoChildrenAndItsFormsAgree) {
     };
     const long double lambda = (nb == 0 || na == 0) ? 0.75L : 1.0L;
     const long double expected =
-        lambda * (15 + 20 * (area(below) * nb + area(above) * na) / area(box));
+        lambda * (kKdSah.traversal +
+                  kKdSah.intersection * (area(below) * nb + area(above) * na) / area(box));
     const KdAxisCost axis_cost(cost, box, axis);
     const double got = axis_cost(p, nb, na);
     EXPECT_NEAR(static_cast<double>(got / expected), 1.0, 1e-5) << i;

@@ -38,12 +38,16 @@ std::size_t rays_per_mesh() {
   return kSanitized ? 5000 : 100000;
 }
 
+// Unset constants: the kd-tree's defaults (kKdSah).
 std::unique_ptr<Accel> build_kd(std::span<const Triangle> triangles, int threads = 0,
-                                float intersection_cost = BuildConfig{}.intersection_cost) {
+                                std::optional<SahConstants> constants = {}) {
   BuildConfig config;
   config.builder = "sah";
   config.threads = threads;
-  config.intersection_cost = intersection_cost;
+  if (constants) {
+    config.traversal_cost = constants->traversal;
+    config.intersection_cost = constants->intersection;
+  }
   return make_kd(triangles, config);
 }
 
@@ -214,9 +218,9 @@ bool same_hit(const Hit& a, const Hit& b) {
 
 // Closest and any hits of kd (sah) equal brute's on `count` rays.
 void expect_brute_hits(const Mesh& mesh, std::uint64_t seed, std::size_t count = rays_per_mesh(),
-                       float intersection_cost = BuildConfig{}.intersection_cost) {
+                       std::optional<SahConstants> constants = {}) {
   const std::vector<Triangle> triangles = mesh.triangles();
-  const auto kd = build_kd(triangles, 0, intersection_cost);
+  const auto kd = build_kd(triangles, 0, constants);
   const auto brute = make_brute(triangles, {});
   RayMaker maker(mesh, seed);
   std::vector<Ray> rays = maker.make_packets(count / 32);  // half the rays in packets
@@ -300,7 +304,9 @@ TEST(KdFlatten, LaysOutDepthFirstWithBelowChildNext) {
   EXPECT_EQ(stats.prim_refs, 3u);
   // Root half area 2*4 + 4*1 + 1*2 = 14; cells: below x<1 (1*4+4+1 = 9), above (9),
   // above-below y<2 (1*2+2+1 = 5), above-above (5).
-  const double expected = (15.0 * 14 + 20.0 * 2 * 9 + 15.0 * 9 + 0 + 20.0 * 1 * 5) / 14;
+  // At the kd-tree's default constants (a config that leaves them unset).
+  const double kt = kKdSah.traversal, ki = kKdSah.intersection;
+  const double expected = (kt * 14 + ki * 2 * 9 + kt * 9 + 0 + ki * 1 * 5) / 14;
   ASSERT_TRUE(stats.sah_cost.has_value());
   EXPECT_NEAR(*stats.sah_cost, expected, 1e-9);
 }
@@ -413,15 +419,14 @@ TEST(KdAccel, StatisticsDescribeTheTree) {
   ASSERT_TRUE(s.sah_cost.has_value());
   EXPECT_GT(*s.sah_cost, 0);
   // Far below a single leaf of everything (K_I * N), as a good tree must be.
-  EXPECT_LT(*s.sah_cost, 0.01 * kSharedIntersectionCost * static_cast<double>(triangles.size()));
-  // Named with the constants it was computed with, and the sum of its two parts.
-  EXPECT_EQ(s.sah_traversal_cost, kSharedTraversalCost);
-  EXPECT_EQ(s.sah_intersection_cost, kSharedIntersectionCost);
+  EXPECT_LT(*s.sah_cost, 0.01 * kKdSah.intersection * static_cast<double>(triangles.size()));
+  // Named with the constants it was computed with (kd's own defaults), and the sum of its parts.
+  EXPECT_EQ(s.sah_traversal_cost, kKdSah.traversal);
+  EXPECT_EQ(s.sah_intersection_cost, kKdSah.intersection);
   ASSERT_TRUE(s.sah_node_steps && s.sah_triangle_tests);
-  EXPECT_NEAR(
-      *s.sah_cost,
-      kSharedTraversalCost * *s.sah_node_steps + kSharedIntersectionCost * *s.sah_triangle_tests,
-      1e-9 * *s.sah_cost);
+  EXPECT_NEAR(*s.sah_cost,
+              kKdSah.traversal * *s.sah_node_steps + kKdSah.intersection * *s.sah_triangle_tests,
+              1e-9 * *s.sah_cost);
   // Every triangle is referenced by some leaf.
   std::vector<bool> seen(triangles.size());
   for (const std::uint32_t id : tree.prim_ids) seen.at(id) = true;
@@ -534,9 +539,16 @@ TEST(KdSahBuilder, EqualsAnExhaustiveSearchAtEveryNode) {
   for (const std::string& file : files) {
     std::vector<Triangle> triangles = load_mesh(file).triangles();
     if (triangles.size() > 1500) triangles.resize(1500);  // O(n^2) per node
-    for (const float empty_bonus : {0.2f, 0.0f}) {
+    // At kd's defaults and at 15 / 20, whose deeper trees make more decisions to check.
+    for (const auto& [empty_bonus, constants] : {std::pair{0.2f, std::optional<SahConstants>{}},
+                                                 {0.0f, std::optional<SahConstants>{}},
+                                                 {0.2f, std::optional<SahConstants>{kSharedSah}}}) {
       BuildConfig config;
       config.empty_bonus = empty_bonus;
+      if (constants) {
+        config.traversal_cost = constants->traversal;
+        config.intersection_cost = constants->intersection;
+      }
       const auto kd = make_kd(triangles, config);
       const KdTree& tree = tree_of(*kd);
       std::vector<NaiveSahBuilder::Item> items;
@@ -549,29 +561,68 @@ TEST(KdSahBuilder, EqualsAnExhaustiveSearchAtEveryNode) {
           std::memcmp(naive.nodes.data(), tree.nodes.data(), tree.nodes.size() * sizeof(KdNode)), 0)
           << file;
       EXPECT_EQ(naive.prim_ids, tree.prim_ids) << file;
-      EXPECT_GT(tree.nodes.size(), 50u) << file;
+      // The Cornell box's 36 triangles make a small tree at kd's constants.
+      EXPECT_GT(tree.nodes.size(), triangles.size() > 100 || constants ? 50u : 5u) << file;
     }
   }
+}
+
+// Unset K_T / K_I resolve per structure: kd to its measured constants, the others to 15 / 20;
+// constants given win everywhere.
+TEST(SahConstants, ResolvePerStructureAndGivenOnesWin) {
+  EXPECT_EQ(kKdSah.traversal, 70);
+  EXPECT_EQ(kKdSah.intersection, 20);
+  EXPECT_EQ(kSharedSah.traversal, 15);
+  EXPECT_EQ(kSharedSah.intersection, 20);
+  const std::vector<Triangle> triangles =
+      load_mesh(test::vendored_file("horse/horse.obj.gz")).triangles();
+  BuildConfig given;
+  given.traversal_cost = 30;
+  given.intersection_cost = 10;
+  for (const std::string accel : {"kd", "bih", "bvh", "brute"}) {
+    const SahConstants expected = accel == "kd" ? kKdSah : kSharedSah;
+    EXPECT_EQ(default_sah(accel).traversal, expected.traversal) << accel;
+    EXPECT_EQ(default_sah(accel).intersection, expected.intersection) << accel;
+    const AccelStats by_default = make_accel(accel, triangles)->stats();
+    EXPECT_EQ(by_default.sah_traversal_cost, expected.traversal) << accel;
+    EXPECT_EQ(by_default.sah_intersection_cost, expected.intersection) << accel;
+    const AccelStats explicit_ = make_accel(accel, triangles, given)->stats();
+    EXPECT_EQ(explicit_.sah_traversal_cost, 30) << accel;
+    EXPECT_EQ(explicit_.sah_intersection_cost, 10) << accel;
+  }
+  // The kd default builds the very tree that K_T = 70, K_I = 20 given explicitly builds, and
+  // another than 15 / 20 (the constants reach the builders, not only the report).
+  const auto by_default = build_kd(triangles);
+  const auto seventy = build_kd(triangles, 0, kKdSah);
+  const auto fifteen = build_kd(triangles, 0, kSharedSah);
+  const KdTree &a = tree_of(*by_default), &b = tree_of(*seventy), &c = tree_of(*fifteen);
+  ASSERT_EQ(a.nodes.size(), b.nodes.size());
+  EXPECT_EQ(std::memcmp(a.nodes.data(), b.nodes.data(), a.nodes.size() * sizeof(KdNode)), 0);
+  EXPECT_EQ(a.prim_ids, b.prim_ids);
+  EXPECT_GT(c.nodes.size(), 2 * a.nodes.size());  // 15 / 20 makes far deeper trees
+  EXPECT_THROW(default_sah("octree"), Error);
 }
 
 TEST(KdAccel, MatchesBruteOnHorse) {
   expect_brute_hits(load_mesh(test::vendored_file("horse/horse.obj.gz")), 1);
 }
 
-// A cheap intersection cost makes leaves of 10 to 40 triangles: several SIMD groups per leaf,
-// partly filled ones, and wide nodes whose cells hold big leaves.
+// A cheap intersection cost (K_T = 15, K_I = 1.5) makes leaves of 10 to 40 triangles: several
+// SIMD groups per leaf, partly filled ones, and wide nodes whose cells hold big leaves.
+constexpr SahConstants kLargeLeaves{15, 1.5f};
+
 TEST(KdAccel, MatchesBruteWithLargeLeaves) {
   const Mesh mesh = load_mesh(test::vendored_file("horse/horse.obj.gz"));
-  const auto kd = build_kd(mesh.triangles(), 0, 1.5f);
+  const auto kd = build_kd(mesh.triangles(), 0, kLargeLeaves);
   EXPECT_GT(kd->stats().mean_leaf_prims, 10.0);
-  expect_brute_hits(mesh, 5, rays_per_mesh() / 2, 1.5f);
+  expect_brute_hits(mesh, 5, rays_per_mesh() / 2, kLargeLeaves);
 }
 
 // Small leaves are referenced inline from the wide nodes (first and count in the reference);
 // leaves of 31 triangles or more through the leaf table. Both must give every leaf's range.
 TEST(KdWideTree, ReferencesSmallLeavesInlineAndLargeOnesThroughTheTable) {
   const Mesh mesh = load_mesh(test::vendored_file("horse/horse.obj.gz"));
-  const auto accel = build_kd(mesh.triangles(), 0, 1.5f);
+  const auto accel = build_kd(mesh.triangles(), 0, kLargeLeaves);
   const KdTree& tree = tree_of(*accel);
   const KdWideTree wide = KdWideTree::from(tree);
   std::size_t inline_refs = 0, table_refs = 0;

@@ -11,6 +11,7 @@
 #include <system_error>
 
 #include "file_options.hpp"
+#include "sah_options.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/core/output_file.hpp"
 #include "splitray/core/parallel.hpp"
@@ -101,17 +102,8 @@ void add_accel_options(CLI::App& command, AccelOptions& options) {
                   "depend on it")
       ->check(CLI::NonNegativeNumber);
   const std::string group = "Build settings";
-  command
-      .add_option("--kt", options.build.traversal_cost,
-                  "SAH cost of traversing a node (K_T; default 15; kd's measured optimum: "
-                  "`splitray bench kd-costs`)")
-      ->check(CLI::PositiveNumber)
-      ->group(group);
-  command
-      .add_option("--ki", options.build.intersection_cost,
-                  "SAH cost of intersecting a triangle (K_I; default 20)")
-      ->check(CLI::PositiveNumber)
-      ->group(group);
+  cli::add_sah_options(command, options.build.traversal_cost, options.build.intersection_cost,
+                       group);
   command
       .add_option("--empty-bonus", options.build.empty_bonus,
                   "SAH discount for splits that cut off empty space")

@@ -57,6 +57,11 @@ py::dict stats_dict(const AccelStats& s) {
   d["prim_refs"] = s.prim_refs;
   d["bytes"] = s.bytes;
   d["sah_cost"] = optional_float(s.sah_cost);
+  // The K_T and K_I sah_cost was computed with (each structure's defaults: kd 70 / 20, else 15 /
+  // 20).
+  d["sah_kt"] = s.sah_cost ? py::object(py::float_(s.sah_traversal_cost)) : py::object(py::none());
+  d["sah_ki"] =
+      s.sah_cost ? py::object(py::float_(s.sah_intersection_cost)) : py::object(py::none());
   d["sah_node_steps"] = optional_float(s.sah_node_steps);
   d["sah_triangle_tests"] = optional_float(s.sah_triangle_tests);
   d["cost_evals"] = s.cost_evals;

@@ -160,6 +160,10 @@ def test_stats(horse):
     stats = splitray.Scene(*horse, accel="kd", builder="binned").stats
     assert stats["accel"] == "kd" and stats["builder"] == "binned" and stats["prims"] == 16843
     assert stats["nodes"] > stats["leaves"] > 0 and stats["sah_cost"] > 0
+    # Every SAH cost names its constants: the kd-tree's measured defaults, the BVH's 15 / 20.
+    assert (stats["sah_kt"], stats["sah_ki"]) == (70.0, 20.0)
+    bvh = splitray.Scene(*horse, accel="bvh").stats
+    assert (bvh["sah_kt"], bvh["sah_ki"]) == (15.0, 20.0)
 
 
 @pytest.mark.parametrize("kwargs,error,words", [

@@ -18,16 +18,27 @@ namespace splitray {
 // the expansion builder, whose exact decisions beat those learnt from a few samples there.
 inline constexpr int kNeuralTopMinPrims = 4096;
 
-// The SAH constants every structure builds with by default (the literature's). The kd-tree's
-// measured optimum is higher (`splitray bench kd-costs`: a node step of the 8-byte-node walk
-// costs about 3.5 triangle tests of the 8-wide SIMD leaf test; README "kd-tree cost constants").
-inline constexpr float kSharedTraversalCost = 15, kSharedIntersectionCost = 20;
+// The SAH constants K_T (a node step) and K_I (a triangle test).
+struct SahConstants {
+  float traversal, intersection;
+};
+
+// The literature's constants: the defaults of every structure but the kd-tree (BIH, BVH,
+// brute), and those the shipped neural model (models/sah.bin) was trained with.
+inline constexpr SahConstants kSharedSah{15, 20};
+inline constexpr float kSharedTraversalCost = kSharedSah.traversal,
+                       kSharedIntersectionCost = kSharedSah.intersection;
+// The kd-tree's defaults, measured on this implementation (8-byte-node walk, 8-wide SIMD leaf
+// test): fitting trace times to the SAH's node steps and triangle tests gave a median K_T of
+// 70.8 at K_I = 20 over the 15 benchmark meshes (bench/results/kd_costs.md; reproduce with
+// `splitray bench kd-costs --kt 10 15 20 30 45 60 90 120 180`).
+inline constexpr SahConstants kKdSah{70, 20};
 
 // Build settings shared by every structure; each reads the fields that apply to it.
 struct BuildConfig {
-  std::string builder;                                // empty = the structure's default builder
-  float traversal_cost = kSharedTraversalCost;        // K_T of the SAH
-  float intersection_cost = kSharedIntersectionCost;  // K_I of the SAH
+  std::string builder;  // empty = the structure's default builder
+  // K_T and K_I of the SAH; unset = the structure's own default (kKdSah, kSharedSah).
+  std::optional<float> traversal_cost, intersection_cost;
   float empty_bonus = 0.2f;  // SAH discount for cutting off empty space (Wald & Havran: 0.2)
   int max_depth = 0;         // 0 = automatic (8 + 1.3 log2 N, as in pbrt / Wald & Havran)
   int max_leaf_prims = 1;    // a node with this many or fewer primitives is never split
@@ -43,6 +54,21 @@ struct BuildConfig {
   // The top from an exact greedy sweep over the same samples instead of the network (the
   // baseline of paper 003 Fig. 3: what the samples alone give).
   bool greedy_top = false;
+
+  // The one resolution of the SAH constants: those given, else the structure's `defaults`.
+  SahConstants sah(SahConstants defaults) const {
+    return {traversal_cost.value_or(defaults.traversal),
+            intersection_cost.value_or(defaults.intersection)};
+  }
+  // This config with its constants fixed to sah(defaults): what a structure hands to code of
+  // another structure it builds with (the BVH's kd top), so that it keeps its own defaults.
+  BuildConfig with_sah(SahConstants defaults) const {
+    BuildConfig fixed = *this;
+    const SahConstants c = sah(defaults);
+    fixed.traversal_cost = c.traversal;
+    fixed.intersection_cost = c.intersection;
+    return fixed;
+  }
 };
 
 struct AccelStats {
@@ -119,5 +145,7 @@ std::vector<std::string> accel_names();
 std::vector<std::string> builder_names(const std::string& accel);
 // Whether make_accel(accel) also takes builder "neural" (not listed by builder_names).
 bool has_neural_builder(const std::string& accel);
+// The SAH constants make_accel(accel) builds with when the config leaves them unset.
+SahConstants default_sah(const std::string& accel);
 
 }  // namespace splitray

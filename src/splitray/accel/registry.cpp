@@ -22,6 +22,9 @@ struct Entry {
   // Takes --builder neural too (paper 003). Kept out of `builders`, which benchmarks and
   // tests iterate: the neural builder needs a model file that may be absent.
   bool neural = false;
+  // The SAH constants it builds with when the config leaves them unset (each structure
+  // resolves them with BuildConfig::sah; this is what it resolves to, for help and reports).
+  SahConstants sah = kSharedSah;
 };
 
 using MakeFn = std::unique_ptr<Accel> (*)(std::span<const Triangle>, const BuildConfig&);
@@ -34,7 +37,7 @@ std::unique_ptr<Accel> make_or_neural(std::span<const Triangle> triangles,
 const std::map<std::string, Entry>& registry() {
   static const std::map<std::string, Entry> entries = {
       {"brute", {{"none"}, make_brute}},
-      {"kd", {kd_builder_names(), make_or_neural<make_kd, make_neural_kd>, true}},
+      {"kd", {kd_builder_names(), make_or_neural<make_kd, make_neural_kd>, true, kKdSah}},
       {"embree", {{"medium", "low", "high", "refit"}, make_embree}},
       {"bih", {{"global", "median", "middle", "sah"}, make_bih}},
       {"bvh", {{"binned", "sbvh"}, make_or_neural<make_bvh, make_neural_bvh>, true}},
@@ -67,6 +70,11 @@ std::vector<std::string> builder_names(const std::string& accel) {
 bool has_neural_builder(const std::string& accel) {
   const auto it = registry().find(accel);
   return it != registry().end() && it->second.neural;
+}
+
+SahConstants default_sah(const std::string& accel) {
+  builder_names(accel);  // throws on an unknown name
+  return registry().at(accel).sah;
 }
 
 std::unique_ptr<Accel> make_accel(const std::string& name, std::span<const Triangle> triangles,

@@ -17,7 +17,8 @@ class BihAccel final : public Accel {
     stats_.build_ms = timer.ms();
     stats_.accel = "bih";
     stats_.builder = config.builder;
-    bih_.fill_stats(stats_, config.traversal_cost, config.intersection_cost);
+    const SahConstants k = config.sah(kSharedSah);
+    bih_.fill_stats(stats_, k.traversal, k.intersection);
   }
 
   Hit closest_hit(const Ray& ray) const override { return bih_.intersect(ray); }

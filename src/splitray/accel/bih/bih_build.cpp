@@ -354,8 +354,9 @@ BihHeuristic parse_bih_heuristic(const std::string& name) {
 BihBuildOptions BihBuildOptions::from(const BuildConfig& config, BihHeuristic heuristic) {
   BihBuildOptions o;
   o.heuristic = heuristic;
-  o.traversal_cost = config.traversal_cost;
-  o.intersection_cost = config.intersection_cost;
+  const SahConstants k = config.sah(kSharedSah);  // the BIH's defaults
+  o.traversal_cost = k.traversal;
+  o.intersection_cost = k.intersection;
   o.leaf_size = std::max(config.max_leaf_prims, 1);
   o.bins = std::clamp(config.bins, 4, kMaxBins);
   o.max_depth = config.max_depth > 0 ? std::min(config.max_depth, 64) : 64;

@@ -20,7 +20,8 @@ class BruteAccel final : public Accel {
     stats_.nodes = stats_.leaves = 1;
     stats_.mean_leaf_prims = static_cast<double>(triangles_.size());
     stats_.bytes = triangles_.size() * sizeof(Triangle);
-    SahCost cost(box, config.traversal_cost, config.intersection_cost);
+    const SahConstants k = config.sah(kSharedSah);
+    SahCost cost(box, k.traversal, k.intersection);
     cost.leaf(box, triangles_.size());
     cost.report(stats_);
     stats_.build_ms = timer.ms();

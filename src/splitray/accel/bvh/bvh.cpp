@@ -11,8 +11,9 @@ namespace splitray {
 
 BvhBuildOptions BvhBuildOptions::from(const BuildConfig& config) {
   BvhBuildOptions o;
-  o.traversal_cost = config.traversal_cost;
-  o.intersection_cost = config.intersection_cost;
+  const SahConstants k = config.sah(kSharedSah);  // the BVH's defaults
+  o.traversal_cost = k.traversal;
+  o.intersection_cost = k.intersection;
   o.min_leaf = std::max(config.max_leaf_prims, 1);
   o.bins = std::clamp(config.bins, 4, 256);
   o.max_depth = config.max_depth > 0 ? std::min(config.max_depth, 64) : 64;

@@ -10,7 +10,8 @@ namespace {
 class BvhAccel final : public Accel {
  public:
   BvhAccel(std::span<const Triangle> triangles, const BuildConfig& config)
-      : traversal_cost_(config.traversal_cost), intersection_cost_(config.intersection_cost) {
+      : traversal_cost_(config.sah(kSharedSah).traversal),
+        intersection_cost_(config.sah(kSharedSah).intersection) {
     Timer timer;
     bvh_ = Bvh::build(triangles, config.builder, BvhBuildOptions::from(config));
     stats_.build_ms = timer.ms();

@@ -217,7 +217,7 @@ Bvh build_kd_top_bvh(std::span<const Triangle> triangles, int depth, LeafExpande
   if (triangles.empty()) throw Error("kd-top bvh", "no triangles to build on");
   Aabb bounds;
   for (const Triangle& t : triangles) bounds.extend(t.bounds());
-  BuildConfig top_config = config;
+  BuildConfig top_config = config.with_sah(kSharedSah);  // the BVH's constants, not kd's
   top_config.max_depth = std::max(depth, 1);
   KdBuildResult kd = build_kd_sah(triangles, bounds, top_config);
   const std::vector<TopCell> cells = top_cells_from_kd(take_kd_tree(kd, bounds), depth);

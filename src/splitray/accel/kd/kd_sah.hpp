@@ -18,12 +18,16 @@
 
 namespace splitray {
 
+// The kd-tree's K_T and K_I: the config's, else kd's measured defaults (accel.hpp). Every kd
+// builder and the tree's statistics read them here, whichever way the tree is built.
+inline SahConstants kd_sah(const BuildConfig& c) { return c.sah(kKdSah); }
+
 struct KdSplitCost {
   double traversal, intersection, empty_factor;
 
   explicit KdSplitCost(const BuildConfig& c)
-      : traversal(c.traversal_cost),
-        intersection(c.intersection_cost),
+      : traversal(kd_sah(c).traversal),
+        intersection(kd_sah(c).intersection),
         empty_factor(1.0 - c.empty_bonus) {}
 
   double leaf(std::size_t prims) const { return intersection * static_cast<double>(prims); }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <string>
 
+#include "splitray/accel/kd/kd_sah.hpp"
 #include "splitray/accel/sah_cost.hpp"
 #include "splitray/core/errors.hpp"
 
@@ -45,7 +46,8 @@ void check_kd_index(std::size_t value, const char* what) {
 }
 
 AccelStats kd_tree_stats(const KdTree& tree, const BuildConfig& config) {
-  StatsWalk walk{tree, SahCost(tree.bounds, config.traversal_cost, config.intersection_cost), {}};
+  const SahConstants k = kd_sah(config);
+  StatsWalk walk{tree, SahCost(tree.bounds, k.traversal, k.intersection), {}};
   if (!tree.nodes.empty()) walk.visit(0, tree.bounds, 0);
   AccelStats& s = walk.stats;
   s.nodes = tree.nodes.size();

@@ -50,7 +50,8 @@ class NeuralAccel final : public Accel {
 class TopBvhAccel final : public Accel {
  public:
   TopBvhAccel(Bvh bvh, const BuildConfig& config) : bvh_(std::move(bvh)), config_(config) {
-    bvh_.fill_stats(stats_, config.traversal_cost, config.intersection_cost);
+    const SahConstants k = config.sah(kSharedSah);  // the BVH's defaults
+    bvh_.fill_stats(stats_, k.traversal, k.intersection);
   }
   Hit closest_hit(const Ray& ray) const override { return bvh_.intersect(ray); }
   bool any_hit(const Ray& ray) const override { return bvh_.occluded(ray); }
@@ -59,7 +60,8 @@ class TopBvhAccel final : public Accel {
     Timer timer;
     bvh_.refit(triangles);
     stats_.build_ms = timer.ms();
-    bvh_.fill_stats(stats_, config_.traversal_cost, config_.intersection_cost);
+    const SahConstants k = config_.sah(kSharedSah);
+    bvh_.fill_stats(stats_, k.traversal, k.intersection);
     return true;
   }
 
@@ -158,8 +160,11 @@ TriangleTop infer_triangle_top(const NeuralModel& model, std::span<const Triangl
   out.sampling_ms = timer.ms();
   NeuralTopOptions options;
   options.cost = NeuralCost::sah;
-  options.traversal_cost = config.traversal_cost;
-  options.intersection_cost = config.intersection_cost;
+  // The constants the shipped model was trained with, unless the user gives others (the
+  // top's own costing; the kd expansion below uses kd's constants, a BVH's the BVH's).
+  const SahConstants k = config.sah(kSharedSah);
+  options.traversal_cost = k.traversal;
+  options.intersection_cost = k.intersection;
   options.population = static_cast<double>(triangles.size());
   options.min_split_population = config.top_min_prims;
   options.greedy = config.greedy_top;
