@@ -692,6 +692,12 @@ void report(const AnimateCommand& command, const FrameSequence& sequence,
       {"first_frame", sequence.label(0)},
   };
   add_frame_medians(summary, rows);
+  // The constants every SAH cost above was computed with (the structure's defaults unless
+  // --kt/--ki were given).
+  const SahConstants sah =
+      command.accel.build.sah(command.accel.accel == "kd" ? kKdSah : kSharedSah);
+  summary["sah_kt"] = sah.traversal;
+  summary["sah_ki"] = sah.intersection;
   summary["frame_pass"] = command.pass_width > 0 && command.pass_height > 0
                               ? Json(fmt::format("{}x{} primary + 1 shadow ray per hit",
                                                  command.pass_width, command.pass_height))
