@@ -392,8 +392,10 @@ TEST_F(Cli, AnimateComparesEveryStrategyOnTheSameFrames) {
   SPLITRAY_REQUIRE_SHARED(first, "anim_horse_collapse/frames/horse-collapse-01.obj.gz");
   const std::string frames =
       quote((fs::path(first).parent_path() / "horse-collapse-%02d.obj.gz").string());
-  const json all =
-      run_json("animate " + frames + " --frames 3 -t 2 --compare --pass-width 64 --pass-height 48");
+  const fs::path csv = test_dir() / "compare.csv";
+  const json all = run_json("animate " + frames +
+                            " --frames 3 -t 2 --compare --pass-width 64 --pass-height 48 --csv " +
+                            quote(csv.string()));
   EXPECT_EQ(all.value("frames", 0), 3);
   ASSERT_TRUE(all.contains("strategies"));
   for (const char* name : {"kd-coherent", "kd-rebuild", "bvh-refit", "bvh-rebuild", "embree-refit",
@@ -405,6 +407,27 @@ TEST_F(Cli, AnimateComparesEveryStrategyOnTheSameFrames) {
     EXPECT_GT(s.value("frame_ms_vs_best_embree", 0.0), 0.0) << name;
     if (s.value("exact", false)) EXPECT_EQ(s.value("hit_mismatches", -1), 0) << name;
   }
+  // Per frame: update and trace times are positive and the frame time is their sum (the CSV
+  // rounds each to 1e-4 ms); 7 strategies x 3 frames.
+  std::istringstream rows(read_text(csv));
+  std::string row;
+  std::getline(rows, row);
+  EXPECT_EQ(row.rfind("strategy,frame,update_ms,trace_ms,frame_ms,", 0), 0u) << row;
+  std::size_t count = 0;
+  while (std::getline(rows, row)) {
+    std::istringstream cells(row);
+    std::string strategy, frame, update, trace, total;
+    std::getline(cells, strategy, ',');
+    std::getline(cells, frame, ',');
+    std::getline(cells, update, ',');
+    std::getline(cells, trace, ',');
+    std::getline(cells, total, ',');
+    EXPECT_GT(std::stod(update), 0.0) << row;
+    EXPECT_GT(std::stod(trace), 0.0) << row;
+    EXPECT_NEAR(std::stod(total), std::stod(update) + std::stod(trace), 2e-4) << row;
+    ++count;
+  }
+  EXPECT_EQ(count, 7u * 3u);
   const json kd =
       run_json("animate " + frames + " --frames 3 -t 1 --rays 0 --pass-width 64 --pass-height 48");
   for (const char* key : {"median_update_ms", "median_trace_ms", "median_frame_ms"})
