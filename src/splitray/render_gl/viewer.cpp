@@ -35,8 +35,9 @@ class Window {
   Window(int width, int height, const std::string& title) {
     glfwSetErrorCallback([](int, const char* text) { glfw_message() = text ? text : ""; });
     if (!glfwInit())
-      throw Error(kWhere, "cannot open a window (" + glfw_message() +
-                              "); without a display run it under Xvfb: xvfb-run -a splitray view ...");
+      throw Error(kWhere,
+                  "cannot open a window (" + glfw_message() +
+                      "); without a display run it under Xvfb: xvfb-run -a splitray view ...");
     glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 4);
     glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 5);
     glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
@@ -96,35 +97,53 @@ struct Controls {
   }
 };
 
-Controls& controls_of(GLFWwindow* w) { return *static_cast<Controls*>(glfwGetWindowUserPointer(w)); }
+Controls& controls_of(GLFWwindow* w) {
+  return *static_cast<Controls*>(glfwGetWindowUserPointer(w));
+}
 
 void install_callbacks(GLFWwindow* window) {
   glfwSetKeyCallback(window, [](GLFWwindow* w, int key, int, int action, int) {
     if (action != GLFW_PRESS) return;
     Controls& c = controls_of(w);
     switch (key) {
-      case GLFW_KEY_ESCAPE: glfwSetWindowShouldClose(w, GLFW_TRUE); break;
-      case GLFW_KEY_R: c.toggle_refine = true; break;
-      case GLFW_KEY_M: c.toggle_secondary = true; break;
-      case GLFW_KEY_I: c.toggle_interleave = true; break;
-      case GLFW_KEY_O: c.toggle_overlay = true; break;
-      case GLFW_KEY_SPACE: c.toggle_pause = true; break;
+      case GLFW_KEY_ESCAPE:
+        glfwSetWindowShouldClose(w, GLFW_TRUE);
+        break;
+      case GLFW_KEY_R:
+        c.toggle_refine = true;
+        break;
+      case GLFW_KEY_M:
+        c.toggle_secondary = true;
+        break;
+      case GLFW_KEY_I:
+        c.toggle_interleave = true;
+        break;
+      case GLFW_KEY_O:
+        c.toggle_overlay = true;
+        break;
+      case GLFW_KEY_SPACE:
+        c.toggle_pause = true;
+        break;
       case GLFW_KEY_P:
-      case GLFW_KEY_F12: c.screenshot = true; break;
+      case GLFW_KEY_F12:
+        c.screenshot = true;
+        break;
       case GLFW_KEY_HOME: {
         const Camera original = c.original;
         const float size = c.speed / 0.4f;
         c = Controls(original, size);
         break;
       }
-      default: break;
+      default:
+        break;
     }
   });
   glfwSetMouseButtonCallback(window, [](GLFWwindow* w, int button, int action, int) {
     Controls& c = controls_of(w);
     glfwGetCursorPos(w, &c.mouse_x, &c.mouse_y);
     if (button == GLFW_MOUSE_BUTTON_LEFT) c.orbit = action == GLFW_PRESS;
-    if (button == GLFW_MOUSE_BUTTON_RIGHT || button == GLFW_MOUSE_BUTTON_MIDDLE) c.pan = action == GLFW_PRESS;
+    if (button == GLFW_MOUSE_BUTTON_RIGHT || button == GLFW_MOUSE_BUTTON_MIDDLE)
+      c.pan = action == GLFW_PRESS;
   });
   glfwSetCursorPosCallback(window, [](GLFWwindow* w, double x, double y) {
     Controls& c = controls_of(w);
@@ -189,16 +208,18 @@ ViewerSummary run_viewer(const Scene& scene, const ViewerOptions& options) {
   glGetIntegerv(GL_MAJOR_VERSION, &major);
   glGetIntegerv(GL_MINOR_VERSION, &minor);
   if (major * 10 + minor < 45)
-    throw Error(kWhere, fmt::format("needs OpenGL 4.5, the window's context has {}.{}", major, minor));
+    throw Error(kWhere,
+                fmt::format("needs OpenGL 4.5, the window's context has {}.{}", major, minor));
   const std::string renderer_name = gl::renderer_name();
   ThreadLimit limit(ho.build.threads);
 
-  const Camera start = options.camera                  ? *options.camera
+  const Camera start = options.camera                   ? *options.camera
                        : !options.frame_cameras.empty() ? options.frame_cameras.front()
                        : scene.camera                   ? *scene.camera
                                                         : Camera::frame(scene.bounds());
   HybridRenderer renderer(scene, ho, start);
-  if (const std::string warning = coverage_warning(renderer.coverage(start), renderer.lights().size());
+  if (const std::string warning =
+          coverage_warning(renderer.coverage(start), renderer.lights().size());
       !warning.empty())
     std::fprintf(stderr, "splitray: warning: %s\n", warning.c_str());
   const std::size_t triangles = renderer.accel_stats().prims;
@@ -228,7 +249,8 @@ ViewerSummary run_viewer(const Scene& scene, const ViewerOptions& options) {
   const auto save = [&](const std::string& path) {
     if (last.image.pixels.empty()) return;
     write_image(path, last.image);
-    std::fprintf(stderr, "splitray view: saved %s (%d x %d)\n", path.c_str(), last.image.width, last.image.height);
+    std::fprintf(stderr, "splitray view: saved %s (%d x %d)\n", path.c_str(), last.image.width,
+                 last.image.height);
     std::fflush(stdout);
   };
   // Puts the finished frame (the renderer's last composite) on the screen with the overlay.
@@ -240,7 +262,8 @@ ViewerSummary run_viewer(const Scene& scene, const ViewerOptions& options) {
     glViewport(0, 0, fw, fh);
     glDisable(GL_DEPTH_TEST);
     present.use();
-    glProgramUniform2f(present.id(), present.uniform("u_viewport"), static_cast<float>(fw), static_cast<float>(fh));
+    glProgramUniform2f(present.id(), present.uniform("u_viewport"), static_cast<float>(fw),
+                       static_cast<float>(fh));
     glBindTextureUnit(0, renderer.last_texture());
     glBindVertexArray(empty_vao);
     glDrawArrays(GL_TRIANGLES, 0, 3);
@@ -257,8 +280,8 @@ ViewerSummary run_viewer(const Scene& scene, const ViewerOptions& options) {
           fmt::format("splitray view  {}x{}  {} triangles", ho.width, ho.height, triangles),
           "GL: " + renderer_name,
           fmt::format("{:.2f} fps  ({:.1f} ms per frame)", fps, fps > 0 ? 1000.0 / fps : 0.0),
-          fmt::format("GPU: shadow map {:.1f}  ids+mask {:.1f}  blur {:.1f}  composite {:.1f} ms", p[0],
-                      p[1], p[2], p[4]),
+          fmt::format("GPU: shadow map {:.1f}  ids+mask {:.1f}  blur {:.1f}  composite {:.1f} ms",
+                      p[0], p[1], p[2], p[4]),
           fmt::format("CPU: ray pass {:.1f} ms, {} rays  present {:.1f} ms", p[3], frame.cpu_rays,
                       present_ms),
           fmt::format("     {} reflective + {} shadow-boundary pixels", frame.secondary_pixels,
@@ -267,9 +290,9 @@ ViewerSummary run_viewer(const Scene& scene, const ViewerOptions& options) {
                       on_off(o.refine_shadows), on_off(o.secondary), on_off(o.interleaved)),
       };
       if (animated)
-        lines.push_back(fmt::format("animation frame {}/{}  coherent kd rebuild {:.1f} ms  [Space] {}",
-                                    animation_frame + 1, options.frames.size(), build_ms,
-                                    paused ? "play" : "pause"));
+        lines.push_back(fmt::format(
+            "animation frame {}/{}  coherent kd rebuild {:.1f} ms  [Space] {}", animation_frame + 1,
+            options.frames.size(), build_ms, paused ? "play" : "pause"));
       lines.push_back("mouse: left orbit, right pan, wheel zoom  WASD/QE move");
       lines.push_back("[P] screenshot  [Home] reset camera  [O] overlay  [Esc] quit");
       overlay.draw(lines, fw, fh);
@@ -311,7 +334,7 @@ ViewerSummary run_viewer(const Scene& scene, const ViewerOptions& options) {
       });
       build_ms = build_timer.ms();
     }
-    const Camera camera = controls.moved                ? controls.camera
+    const Camera camera = controls.moved                  ? controls.camera
                           : options.frame_cameras.empty() ? controls.original
                                                           : options.frame_cameras[animation_frame];
     ++submitted;
