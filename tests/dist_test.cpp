@@ -145,6 +145,26 @@ TEST(MpiRender, TwoAndThreeRanksWriteTheSingleProcessImage) {
   fs::remove_all(dir);
 }
 
+// --mode hybrid under mpirun: bands of rows, each rank with its own OpenGL context, give the
+// single process's hybrid image byte for byte.
+TEST(MpiRender, HybridBandsOfTwoAndThreeRanksWriteTheSingleProcessImage) {
+  REQUIRE_MPI();
+  const fs::path dir = fresh_dir();
+  const fs::path one = dir / "one.png";
+  const Outcome single = run_splitray(kScene + " --mode hybrid -o " + quote(one.string()), dir);
+  if (single.status != 0 && single.err.find("OpenGL") != std::string::npos)
+    GTEST_SKIP() << "no usable OpenGL here: " << single.err;
+  ASSERT_EQ(single.status, 0) << single.err;
+  for (const int ranks : {2, 3}) {
+    const fs::path out = dir / ("ranks" + std::to_string(ranks) + ".png");
+    const Outcome run =
+        mpirun(ranks, kScene + " --mode hybrid --tile-size 40 -o " + quote(out.string()), dir);
+    ASSERT_EQ(run.status, 0) << run.err;
+    EXPECT_TRUE(read_text(out) == read_text(one)) << ranks << " ranks: the hybrid image differs";
+  }
+  fs::remove_all(dir);
+}
+
 TEST(MpiRender, AFailingSceneEndsEveryRankWithOneMessage) {
   REQUIRE_MPI();
   const fs::path dir = fresh_dir();

@@ -89,8 +89,6 @@ void run(const RenderCommand& command) {
   check_image_path(command.output);  // before any work: a bad name fails at once
   const std::optional<PixelRect> crop = parse_crop(command.crop, command.width, command.height);
   const dist::World& world = dist::world();
-  if (world.distributed() && command.mode == "hybrid")
-    throw Error("--mode hybrid", "not distributed under mpirun: run it as one process");
   const bool lead = world.rank == 0;  // under mpirun only rank 0 reports and writes
   cli::ProgressBar bar(lead ? "render" : "");
   const auto status = [&](const std::string& text) {
@@ -122,7 +120,7 @@ void run(const RenderCommand& command) {
   options.progress = [&bar](double fraction) { bar.update(fraction); };
   std::optional<DistRender> distributed;
   if (world.distributed())
-    distributed = render_distributed(scene, camera, options, command.tile_size);
+    distributed = render_distributed(scene, camera, options, command.tile_size, command.mode);
   if (!lead) return;
   const RenderResult result =
       distributed ? std::move(distributed->result) : render_mode(command, scene, camera, options);
@@ -211,9 +209,12 @@ void run(const RenderCommand& command) {
         "crop", fmt::format("pixels {}..{} x {}..{} of {} x {}", crop->x0, crop->x1 - 1, crop->y0,
                             crop->y1 - 1, command.width, command.height));
   if (distributed)
-    rows.emplace_back(
-        "ranks", fmt::format("{} (mpirun), {} tiles of {} x {}", world.size, distributed->tiles,
-                             command.tile_size, command.tile_size));
+    rows.emplace_back("ranks",
+                      command.mode == "hybrid"
+                          ? fmt::format("{} (mpirun), {} bands of {} rows", world.size,
+                                        distributed->tiles, command.tile_size)
+                          : fmt::format("{} (mpirun), {} tiles of {} x {}", world.size,
+                                        distributed->tiles, command.tile_size, command.tile_size));
   print_table(rows);
 }
 
@@ -251,8 +252,10 @@ void add_render_command(CLI::App& app) {
                   "Render only the window X0,X1,Y0,Y1 (fractions of the width and height, as "
                   "pbrt's --cropwindow: pixels ceil(W*X0)..ceil(W*X1)-1); the image has the "
                   "window's size and its pixels are the full image's");
-  sub->add_option("--tile-size", command->tile_size,
-                  "Under mpirun: the square tiles (pixels) rank 0 hands out to the ranks")
+  sub->add_option(
+         "--tile-size", command->tile_size,
+         "Under mpirun: the square tiles (pixels) rank 0 hands out to the ranks (--mode hybrid: "
+         "bands of this many rows, each one GPU frame whose CPU pass traces the band)")
       ->check(CLI::Range(1, 16384));
   add_accel_options(*sub, command->accel);
   cli::add_json_options(*sub, command->json, "the keys of the README's render table");

@@ -4,12 +4,18 @@
 
 #include <cstdint>
 #include <cstring>
+#include <functional>
+#include <memory>
 #include <optional>
 
 #include "splitray/core/errors.hpp"
 #include "splitray/core/timer.hpp"
 #include "splitray/dist/image_bytes.hpp"
 #include "splitray/dist/world.hpp"
+#if SPLITRAY_HAS_RENDER_GL
+#include "splitray/render_gl/gl_context.hpp"
+#include "splitray/render_gl/hybrid.hpp"
+#endif
 
 namespace splitray::app {
 
@@ -23,19 +29,95 @@ std::vector<PixelRect> tile_rects(const PixelRect& region, int tile_size) {
   return tiles;
 }
 
+namespace {
+
+// What renders a tile on this rank: Whitted, or the hybrid renderer in a headless context.
+struct TileRenderer {
+  std::function<Image(const PixelRect&, std::uint64_t&)> render;
+  std::vector<Light> lights;
+  LightCoverage coverage;
+  AccelStats accel_stats;
+  std::shared_ptr<void> keep;  // the renderer (and context) behind `render`
+};
+
+TileRenderer whitted_tiles(const Scene& scene, const Camera& camera, const RenderOptions& options) {
+  auto renderer = std::make_shared<WhittedRenderer>(scene, camera, options);
+  TileRenderer t;
+  t.render = [r = renderer.get()](const PixelRect& rect, std::uint64_t& rays) {
+    return r->render(rect, rays);
+  };
+  t.lights = renderer->lights();
+  t.coverage = renderer->coverage();
+  t.accel_stats = renderer->accel_stats();
+  t.keep = renderer;
+  return t;
+}
+
+#if SPLITRAY_HAS_RENDER_GL
+TileRenderer hybrid_tiles(const Scene& scene, const Camera& camera, const RenderOptions& options) {
+  struct Hybrid {
+    gl::EglContext context;
+    std::optional<HybridRenderer> renderer;
+  };
+  auto h = std::make_shared<Hybrid>();
+  HybridOptions hybrid;
+  hybrid.width = options.width;
+  hybrid.height = options.height;
+  hybrid.max_depth = options.max_depth;
+  hybrid.accel = options.accel;
+  hybrid.build = options.build;
+  hybrid.interleaved = false;  // one tile at a time
+  h->renderer.emplace(scene, hybrid, camera);
+  TileRenderer t;
+  t.render = [h = h.get(), camera](const PixelRect& rect, std::uint64_t& rays) {
+    h->renderer->options().cpu_region = rect;
+    HybridFrame frame = h->renderer->render_one(camera);
+    rays += frame.cpu_rays;
+    Image part(rect.width(), rect.height());
+    for (int y = 0; y < rect.height(); ++y)
+      std::memcpy(&part.at(0, y), &frame.image.at(rect.x0, rect.y0 + y),
+                  sizeof(Vec3) * static_cast<std::size_t>(rect.width()));
+    return part;
+  };
+  t.lights = h->renderer->lights();
+  t.coverage = h->renderer->coverage(camera);
+  t.accel_stats = h->renderer->accel_stats();
+  t.keep = h;
+  return t;
+}
+#endif
+
+}  // namespace
+
 DistRender render_distributed(const Scene& scene, const Camera& camera,
-                              const RenderOptions& options, int tile_size) {
-  std::optional<WhittedRenderer> renderer;
-  dist::all_or_none([&] { renderer.emplace(scene, camera, options); });
+                              const RenderOptions& options, int tile_size,
+                              const std::string& mode) {
+  std::optional<TileRenderer> renderer;
+  dist::all_or_none([&] {
+#if SPLITRAY_HAS_RENDER_GL
+    renderer.emplace(mode == "hybrid" ? hybrid_tiles(scene, camera, options)
+                                      : whitted_tiles(scene, camera, options));
+#else
+    if (mode == "hybrid")
+      throw Error("--mode hybrid", "this splitray was built without OpenGL (SPLITRAY_WITH_GL=OFF)");
+    renderer.emplace(whitted_tiles(scene, camera, options));
+#endif
+  });
   const PixelRect region = options.crop.value_or(PixelRect{0, 0, options.width, options.height});
-  const std::vector<PixelRect> tiles = tile_rects(region, tile_size);
+  std::vector<PixelRect> tiles;
+  if (mode == "hybrid") {  // bands over the region's width: one GPU frame each
+    for (int y = region.y0; y < region.y1; y += tile_size)
+      tiles.push_back({region.x0, y, region.x1, std::min(y + tile_size, region.y1)});
+  } else {
+    tiles = tile_rects(region, tile_size);
+  }
 
   DistRender out;
   out.tiles = tiles.size();
   RenderResult& result = out.result;
-  result.lights = renderer->lights();
-  result.coverage = renderer->coverage();
-  result.accel_stats = renderer->accel_stats();
+  result.lights = renderer->lights;
+  result.coverage = renderer->coverage;
+  result.accel_stats = renderer->accel_stats;
   if (dist::world().rank == 0) result.image = Image(region.width(), region.height());
   std::size_t collected = 0;
 

@@ -106,8 +106,11 @@ void CpuPass::run(const CpuPassInput& in, bool secondary_rays, bool refine,
       row_boundary_rays(rows, 0), row_map_answers(rows, 0);
   const MapAnswers answers(in.maps);
   parallel_chunks(rows, kRowsPerChunk, [&](std::size_t begin, std::size_t end) {
-    for (std::size_t y = begin; y < end; ++y)
-      for (int x = 0; x < in.width; ++x) {
+    const int x1 = in.x1 < 0 ? in.width : std::min(in.x1, in.width);
+    const int y1 = in.y1 < 0 ? in.height : std::min(in.y1, in.height);
+    for (std::size_t y = begin; y < end; ++y) {
+      if (static_cast<int>(y) < in.y0 || static_cast<int>(y) >= y1) continue;
+      for (int x = std::max(in.x0, 0); x < x1; ++x) {
         const std::size_t i = y * in.width + x;
         const std::uint32_t id = in.ids[i];
         if (id == 0) continue;
@@ -142,6 +145,7 @@ void CpuPass::run(const CpuPassInput& in, bool secondary_rays, bool refine,
           out.color[i] = {c.x, c.y, c.z, 0};
         }
       }
+    }
   });
   out.rays = out.boundary_rays = out.map_answers = 0;
   out.secondary_pixels = out.boundary_pixels = 0;

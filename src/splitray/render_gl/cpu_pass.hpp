@@ -40,7 +40,8 @@ struct CpuPassInput {
   std::vector<std::uint32_t> ids;                     // id + 1, top row first
   std::vector<std::array<float, 4>> mask;             // shadow-map visibility per light
   std::vector<std::array<std::uint8_t, 4>> boundary;  // 1 = trace an exact shadow ray
-  std::vector<LightMap> maps;  // per light; empty: every secondary shadow ray is traced
+  std::vector<LightMap> maps;            // per light; empty: every secondary shadow ray is traced
+  int x0 = 0, y0 = 0, x1 = -1, y1 = -1;  // the pixels to trace (x1, y1 < 0: to the edge)
 };
 
 struct CpuPassOutput {

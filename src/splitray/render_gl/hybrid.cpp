@@ -444,6 +444,11 @@ struct HybridRenderer::Impl {
     slot.input.width = w;
     slot.input.height = h;
     slot.input.camera = camera;
+    const PixelRect region = options.cpu_region.value_or(PixelRect{0, 0, w, h});
+    slot.input.x0 = region.x0;
+    slot.input.y0 = region.y0;
+    slot.input.x1 = region.x1;
+    slot.input.y1 = region.y1;
 
     glBeginQuery(GL_TIME_ELAPSED, queries[0]);
     shadow_pass(camera, g);

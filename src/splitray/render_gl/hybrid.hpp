@@ -35,6 +35,9 @@ struct HybridOptions {
   // neighbourhood agrees (traced at shadow edges, transparent casters and outside the maps).
   bool map_secondary_shadows = true;
   bool interleaved = true;  // false: the passes of each frame strictly in sequence
+  // The CPU pass only for these pixels (a tile of an image split across ranks); the GPU passes
+  // still see the whole frame, so the tile's pixels equal the whole frame's.
+  std::optional<PixelRect> cpu_region;
 };
 
 constexpr int kMaxHybridLights = 4;
