@@ -175,14 +175,15 @@ double trace_ms(const Accel& accel, std::span<const Ray> rays, std::vector<Hit>&
 }
 
 // --csv and --plot of the per-frame rows.
-void write_csv_and_plot(const AnimateCommand& command, const std::string& csv) {
+void write_csv_and_plot(const AnimateCommand& command, const std::string& csv,
+                        const std::string& script = "plot_animate.py") {
   if (!command.csv.empty()) write_file_atomically(command.csv, csv);
   if (command.plot.empty()) return;
   const fs::path tmp =
       fs::temp_directory_path() / fmt::format("splitray-animate-{}.csv", ::getpid());
   write_file_atomically(tmp.string(), csv);
   try {
-    run_plot_script("plot_animate.py", command.plot, tmp.string());
+    run_plot_script(script, command.plot, tmp.string());
   } catch (...) {
     fs::remove(tmp);
     throw;
@@ -343,19 +344,7 @@ void run_compare(const AnimateCommand& command, const FrameSequence& sequence,
   const CompareResult result =
       compare_strategies(sequence, frames, options, [&](double done) { bar.update(done); });
   bar.finish();
-  if (!command.csv.empty()) write_file_atomically(command.csv, result.csv);
-  if (!command.plot.empty()) {
-    const fs::path tmp =
-        fs::temp_directory_path() / fmt::format("splitray-compare-{}.csv", ::getpid());
-    write_file_atomically(tmp.string(), result.csv);
-    try {
-      run_plot_script("plot_frame_times.py", command.plot, tmp.string());
-    } catch (...) {
-      fs::remove(tmp);
-      throw;
-    }
-    fs::remove(tmp);
-  }
+  write_csv_and_plot(command, result.csv, "plot_frame_times.py");
   Json summary = result.summary;
   summary["sequence"] = sequence_name(command, sequence);
   summary["threads"] = effective_threads(command.accel.build.threads);

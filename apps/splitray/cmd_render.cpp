@@ -54,29 +54,14 @@ std::optional<PixelRect> parse_crop(const std::string& text, int width, int heig
   return crop_pixels(f[0], f[1], f[2], f[3], width, height, "--crop " + text);
 }
 
-// The pixels of `rect` of a full image (hybrid renders the whole frame on the GPU).
-Image cut(const Image& full, const PixelRect& rect) {
-  Image part(rect.width(), rect.height());
-  for (int y = 0; y < rect.height(); ++y)
-    std::memcpy(&part.at(0, y), &full.at(rect.x0, rect.y0 + y),
-                sizeof(Vec3) * static_cast<std::size_t>(rect.width()));
-  return part;
-}
-
 // --mode hybrid: the five-pass GPU + CPU renderer in a headless OpenGL context; its ray count
 // is the CPU's rays only. Builds without render_gl and machines without OpenGL 4.5 get an Error.
 RenderResult render_mode(const RenderCommand& command, const Scene& scene, const Camera& camera,
                          const RenderOptions& options) {
   if (command.mode != "hybrid") return render_whitted(scene, camera, options);
 #if SPLITRAY_HAS_RENDER_GL
-  HybridOptions hybrid;
-  hybrid.width = options.width;
-  hybrid.height = options.height;
-  hybrid.max_depth = options.max_depth;
-  hybrid.accel = options.accel;
-  hybrid.build = options.build;
-  RenderResult result = render_hybrid(scene, camera, hybrid);
-  if (options.crop) result.image = cut(result.image, *options.crop);
+  RenderResult result = render_hybrid(scene, camera, HybridOptions::from(options));
+  if (options.crop) result.image = crop_image(result.image, *options.crop);
   return result;
 #else
   (void)scene;

@@ -60,12 +60,7 @@ TileRenderer hybrid_tiles(const Scene& scene, const Camera& camera, const Render
     std::optional<HybridRenderer> renderer;
   };
   auto h = std::make_shared<Hybrid>();
-  HybridOptions hybrid;
-  hybrid.width = options.width;
-  hybrid.height = options.height;
-  hybrid.max_depth = options.max_depth;
-  hybrid.accel = options.accel;
-  hybrid.build = options.build;
+  HybridOptions hybrid = HybridOptions::from(options);
   hybrid.interleaved = false;  // one tile at a time
   h->renderer.emplace(scene, hybrid, camera);
   TileRenderer t;
@@ -73,11 +68,7 @@ TileRenderer hybrid_tiles(const Scene& scene, const Camera& camera, const Render
     h->renderer->options().cpu_region = rect;
     HybridFrame frame = h->renderer->render_one(camera);
     rays += frame.cpu_rays;
-    Image part(rect.width(), rect.height());
-    for (int y = 0; y < rect.height(); ++y)
-      std::memcpy(&part.at(0, y), &frame.image.at(rect.x0, rect.y0 + y),
-                  sizeof(Vec3) * static_cast<std::size_t>(rect.width()));
-    return part;
+    return crop_image(frame.image, rect);
   };
   t.lights = h->renderer->lights();
   t.coverage = h->renderer->coverage(camera);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <mutex>
 #include <optional>
 #include <vector>
@@ -148,6 +149,14 @@ PixelRect crop_pixels(double x0, double x1, double y0, double y1, int width, int
     throw Error(what, "the window holds no pixel of the " + std::to_string(width) + "x" +
                           std::to_string(height) + " image");
   return rect;
+}
+
+Image crop_image(const Image& full, const PixelRect& rect) {
+  Image part(rect.width(), rect.height());
+  for (int y = 0; y < rect.height(); ++y)
+    std::memcpy(&part.at(0, y), &full.at(rect.x0, rect.y0 + y),
+                sizeof(Vec3) * static_cast<std::size_t>(rect.width()));
+  return part;
 }
 
 }  // namespace splitray

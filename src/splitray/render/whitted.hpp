@@ -75,6 +75,9 @@ class WhittedRenderer {
   std::unique_ptr<State> state_;
 };
 
+// The pixels of `rect` of a full image (renderers that draw the whole frame, then crop).
+Image crop_image(const Image& full, const PixelRect& rect);
+
 // The pixels of the crop window X0,X1,Y0,Y1 (fractions of the width and height, as pbrt's
 // --cropwindow: pixels ceil(W x0) .. ceil(W x1) - 1), so that adjacent windows tile the
 // image exactly. Error(`what`, ...) when a fraction is outside [0, 1], x0 >= x1 or y0 >= y1,

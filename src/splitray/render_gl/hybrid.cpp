@@ -675,6 +675,16 @@ LightCoverage HybridRenderer::coverage(const Camera& camera) const {
 }
 HybridOptions& HybridRenderer::options() { return impl_->options; }
 
+HybridOptions HybridOptions::from(const RenderOptions& render) {
+  HybridOptions o;
+  o.width = render.width;
+  o.height = render.height;
+  o.max_depth = render.max_depth;
+  o.accel = render.accel;
+  o.build = render.build;
+  return o;
+}
+
 RenderResult render_hybrid(const Scene& scene, const Camera& camera, const HybridOptions& options) {
   gl::EglContext context;
   HybridRenderer renderer(scene, options, camera);

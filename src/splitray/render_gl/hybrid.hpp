@@ -38,6 +38,9 @@ struct HybridOptions {
   // The CPU pass only for these pixels (a tile of an image split across ranks); the GPU passes
   // still see the whole frame, so the tile's pixels equal the whole frame's.
   std::optional<PixelRect> cpu_region;
+
+  // The settings a Whitted render shares (size, depth, structure and its build).
+  static HybridOptions from(const RenderOptions& render);
 };
 
 constexpr int kMaxHybridLights = 4;

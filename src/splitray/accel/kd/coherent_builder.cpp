@@ -200,7 +200,7 @@ class CoherentFrame {
           part->above = task(shape.above(), above, c.above_cell, c.above_content, depth + 1,
                              path_child(path, true), a);
         });
-    built = combine(plan, shape, refs.size(), cell, b, a);
+    built = combine(plan, shape, cell, b, a);
     if (drifted(shape, built, refs.size())) {
       part = std::make_unique<Part>();
       Locals& after = locals_.local();  // the children may have run on other threads
@@ -268,7 +268,7 @@ class CoherentFrame {
     const Built a = node(shape.above(), above, c.above_cell, c.above_content, depth + 1,
                          path_child(path, true), out, shape_out, local);
     local.refs.release(mark);
-    Built built = combine(plan, shape, refs.size(), cell, b, a);
+    Built built = combine(plan, shape, cell, b, a);
     if (drifted(shape, built, refs.size())) {
       out.nodes.resize(first_node);
       out.prims.resize(first_prim);
@@ -476,13 +476,12 @@ class CoherentFrame {
         ++both;
       }
     }
-    const std::size_t only_below = nb - both, only_above = ia - planar - both;
+    const std::size_t only_above = ia - planar - both;
     const KdAxisCost axis_cost(cost_, cell, axis);
     const double cost_below = axis_cost(p, nb + planar, only_above + both);
     const double cost_above = axis_cost(p, nb, only_above + both + planar);
     if (!plan.planar_known) split.planar_below = !(cost_above < cost_below);
     split.cost = split.planar_below ? cost_below : cost_above;
-    (void)only_below;
     if (split.planar_below) {  // the planar references move from above's front to below's end
       for (std::size_t i = 0; i < planar; ++i) {
         below[nb++] = above[i];
@@ -508,7 +507,7 @@ class CoherentFrame {
 
   // The cost of an interior node from its children's (K_T + the children's costs weighted by
   // their cells' shares of the parent's area) and the node counts.
-  Built combine(const Plan& plan, ShapeRef shape, std::size_t, const Aabb& cell, const Built& b,
+  Built combine(const Plan& plan, ShapeRef shape, const Aabb& cell, const Built& b,
                 const Built& a) const {
     Aabb below_cell = cell, above_cell = cell;
     below_cell.hi[plan.split.axis] = plan.split.position;
