@@ -175,6 +175,41 @@ TEST(Aff, IncludesStayInTheSceneFolderAndAreNotQuoted) {
   EXPECT_EQ(message.find("TOPSECRET"), std::string::npos) << message;
 }
 
+// A material may not make the loader read an image elsewhere on the machine: a texture outside
+// the model's folder (by "..", an absolute path or a link out) is not read, a warning says so,
+// and MeshLoadOptions::references_root widens the rule.
+TEST(MeshLoad, TexturesStayInTheModelFolder) {
+  const fs::path dir = test_dir();
+  fs::create_directories(dir / "model");
+  fs::copy_file(test::vendored_file("spider/engineflare1.png"), dir / "outside.png");
+  fs::copy_file(test::vendored_file("spider/engineflare1.png"), dir / "model" / "inside.png");
+  fs::create_symlink("../outside.png", dir / "model" / "link.png");
+  const std::string triangle = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\n";
+  const auto load = [&](const std::string& texture, const std::string& root) {
+    write_text(dir / "model" / "m.mtl", "newmtl t\nmap_Kd " + texture + "\n");
+    write_text(dir / "model" / "m.obj", "mtllib m.mtl\n" + triangle + "usemtl t\nf 1/1 2/2 3/3\n");
+    std::vector<std::string> warnings;
+    MeshLoadOptions options;
+    options.materials = true;
+    options.warnings = &warnings;
+    options.references_root = root;
+    const Mesh mesh = load_mesh((dir / "model" / "m.obj").string(), options);
+    return std::pair{mesh.materials.at(0).diffuse_texture != nullptr, warnings};
+  };
+  EXPECT_TRUE(load("inside.png", "").first);
+  for (const std::string texture :
+       {std::string("../outside.png"), (dir / "outside.png").string(), std::string("link.png")}) {
+    const auto [textured, warnings] = load(texture, "");
+    EXPECT_FALSE(textured) << texture;
+    ASSERT_EQ(warnings.size(), 1u) << texture;
+    EXPECT_NE(warnings[0].find("lies outside the folder of the model; refusing to read it"),
+              std::string::npos)
+        << warnings[0];
+    EXPECT_NE(warnings[0].find("m.obj"), std::string::npos) << warnings[0];
+    EXPECT_TRUE(load(texture, dir.string()).first) << texture;  // a wider root reads it
+  }
+}
+
 TEST(DetectFormat, TheFixturesShowTheirOwnFormats) {
   const fs::path fixtures = test::source_dir() / "tests" / "fixtures";
   const struct {

@@ -331,12 +331,7 @@ class Parser {
     if (++files_ > kMaxIncludedFiles)
       lex.fail("more than the limit of " + std::to_string(kMaxIncludedFiles) +
                " included files in all (files that include each other repeatedly?)");
-    std::error_code ec;
-    const std::filesystem::path resolved =
-        std::filesystem::weakly_canonical(std::filesystem::absolute(included), ec);
-    const auto [end, ignored] =
-        std::mismatch(root_.begin(), root_.end(), resolved.begin(), resolved.end());
-    if (ec || end != root_.end())
+    if (!inside_folder(root_, included))
       lex.fail("the include " + lex.shown(file) + " lies outside the scene's folder " +
                root_.string() + "; refusing to read it");
   }

@@ -5,6 +5,8 @@
 #include <cstring>
 #include <filesystem>
 
+#include "splitray/io/read_file.hpp"
+
 namespace splitray {
 namespace {
 
@@ -59,18 +61,10 @@ bool is_regular_file(const char* file) {
 
 BufferIOSystem::BufferIOSystem(std::string name, std::span<const unsigned char> bytes,
                                std::string root)
-    : name_(std::move(name)), bytes_(bytes) {
-  std::error_code ec;
-  root_ = std::filesystem::weakly_canonical(std::filesystem::absolute(root), ec);
-}
+    : name_(std::move(name)), bytes_(bytes), root_(std::move(root)) {}
 
 bool BufferIOSystem::inside_root(const char* file) const {
-  std::error_code ec;
-  const std::filesystem::path resolved =
-      std::filesystem::weakly_canonical(std::filesystem::absolute(file), ec);
-  const auto [end, ignored] =
-      std::mismatch(root_.begin(), root_.end(), resolved.begin(), resolved.end());
-  if (!ec && !root_.empty() && end == root_.end()) return true;
+  if (inside_folder(root_, file)) return true;
   if (refused_.empty()) refused_ = file;
   return false;
 }

@@ -4,7 +4,8 @@
 // buffers, COLLADA images) beside it on disk. Only regular files are opened from disk: a
 // hostile reference to a FIFO or device cannot hang or flood the import. Only files inside
 // `root` (after resolving `..` and links) are opened: a glTF buffer URI ../../etc/passwd is
-// refused and remembered, so that the loader can name it.
+// refused and remembered, so that the loader can name it. The same rule (`inside_folder`,
+// io/read_file.hpp) confines the textures that materials name (io/materials.cpp).
 #include <assimp/DefaultIOSystem.h>
 
 #include <filesystem>
@@ -28,7 +29,7 @@ class BufferIOSystem : public Assimp::DefaultIOSystem {
  private:
   std::string name_;
   std::span<const unsigned char> bytes_;
-  std::filesystem::path root_;
+  std::string root_;
   mutable std::string refused_;
   bool inside_root(const char* file) const;
 };

@@ -10,6 +10,7 @@
 #include <filesystem>
 
 #include "splitray/core/errors.hpp"
+#include "splitray/io/read_file.hpp"
 #include "splitray/io/texture_io.hpp"
 
 namespace splitray {
@@ -45,9 +46,13 @@ WrapMode wrap_mode(int mode) {
 
 class TextureCache {
  public:
-  TextureCache(const aiScene& scene, std::string folder, std::string file,
+  TextureCache(const aiScene& scene, std::string folder, std::string root, std::string file,
                std::vector<std::string>& warnings)
-      : scene_(scene), folder_(std::move(folder)), file_(std::move(file)), warnings_(warnings) {}
+      : scene_(scene),
+        folder_(std::move(folder)),
+        root_(std::move(root)),
+        file_(std::move(file)),
+        warnings_(warnings) {}
 
   // The texture of `type` (index 0) of `m` with its wrap modes, or null (with a warning when
   // the material names one that cannot be read).
@@ -107,12 +112,16 @@ class TextureCache {
     }
     std::string relative = reference;
     std::replace(relative.begin(), relative.end(), '\\', '/');
-    const std::filesystem::path path = std::filesystem::path(folder_) / relative;
-    return load_texture(path.lexically_normal().string());
+    const std::string path =
+        (std::filesystem::path(folder_) / relative).lexically_normal().string();
+    // A material may not make us read any image of the machine (map_Kd ../../secret.png).
+    if (!inside_folder(root_, path))
+      throw Error(path, "lies outside the folder of the model; refusing to read it");
+    return load_texture(path);
   }
 
   const aiScene& scene_;
-  std::string folder_, file_;
+  std::string folder_, root_, file_;
   std::vector<std::string>& warnings_;
   std::map<std::string, std::shared_ptr<Texture>> images_;
 };
@@ -192,9 +201,9 @@ Material convert(const aiMaterial& m, TextureCache& textures) {
 }  // namespace
 
 std::vector<Material> convert_materials(const aiScene& scene, const std::string& folder,
-                                        const std::string& file,
+                                        const std::string& root, const std::string& file,
                                         std::vector<std::string>& warnings) {
-  TextureCache textures(scene, folder, file, warnings);
+  TextureCache textures(scene, folder, root, file, warnings);
   std::vector<Material> out;
   for (unsigned i = 0; i < scene.mNumMaterials; ++i)
     out.push_back(convert(*scene.mMaterials[i], textures));

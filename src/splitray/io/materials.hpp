@@ -13,8 +13,9 @@
 //   - COLLADA and the other formats: diffuse, specular (x shininess strength), shininess,
 //     opacity, index of refraction, reflectivity x reflective colour, the diffuse texture.
 // Textures come from the file's folder (backslashes read as slashes) or embedded in the file
-// (GLB, "*N"); wrap modes from the file (repeat, clamp, mirror; decal is clamped). A texture
-// that is missing or unreadable is a warning, and the material is rendered untextured.
+// (GLB, "*N"); one that lies outside `root` is not read (a warning, as a missing one); wrap modes
+// from the file (repeat, clamp, mirror; decal is clamped). A texture that is missing or unreadable
+// is a warning, and the material is rendered untextured.
 #include <map>
 #include <memory>
 #include <string>
@@ -27,9 +28,9 @@ struct aiScene;
 namespace splitray {
 
 // Every material of `scene` in assimp's order; `folder` is where relative texture paths
-// resolve, `file` names the mesh file in warnings.
+// resolve, `root` the folder textures must lie in, `file` names the mesh file in warnings.
 std::vector<Material> convert_materials(const aiScene& scene, const std::string& folder,
-                                        const std::string& file,
+                                        const std::string& root, const std::string& file,
                                         std::vector<std::string>& warnings);
 
 }  // namespace splitray

@@ -266,9 +266,9 @@ Mesh load_mesh(const std::string& path, const MeshLoadOptions& options) {
   // extension and referenced files resolve beside the original.
   const std::string name = has_gz_suffix(path) ? path.substr(0, path.size() - 3) : path;
   const std::string folder = std::filesystem::path(path).parent_path().string();
-  auto* io = new BufferIOSystem(
-      name, bytes,
-      options.references_root.empty() ? (folder.empty() ? "." : folder) : options.references_root);
+  const std::string root =
+      options.references_root.empty() ? (folder.empty() ? "." : folder) : options.references_root;
+  auto* io = new BufferIOSystem(name, bytes, root);
   importer.SetIOHandler(io);  // owned by the importer
   importer.SetPropertyBool(AI_CONFIG_IMPORT_NO_SKELETON_MESHES, true);
   // A refused reference (outside the folder) is named, whatever assimp made of its absence.
@@ -310,8 +310,8 @@ Mesh load_mesh(const std::string& path, const MeshLoadOptions& options) {
     mesh.uvs = merger.uvs();
     if (has_own_materials(*scene)) {
       std::vector<std::string> ignored;
-      const std::vector<Material> all =
-          convert_materials(*scene, folder, path, options.warnings ? *options.warnings : ignored);
+      const std::vector<Material> all = convert_materials(
+          *scene, folder, root, path, options.warnings ? *options.warnings : ignored);
       // Only the materials faces use (assimp adds a stand-in first, files list unused ones),
       // renumbered in order of first use.
       mesh.face_materials = merger.face_materials();

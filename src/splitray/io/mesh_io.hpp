@@ -14,9 +14,10 @@ struct MeshLoadOptions {
   bool materials = false;
   // Where problems that do not stop the load go (a missing texture); null: dropped.
   std::vector<std::string>* warnings = nullptr;
-  // Files the model references (glTF buffers, OBJ material libraries, COLLADA images) are
-  // read only inside this folder; empty: the model's own folder. A reference outside (a
-  // buffer URI ../../etc/passwd from a stranger's model) is an Error naming it. Set a wider
+  // Files the model references (glTF buffers, OBJ material libraries, COLLADA images,
+  // textures) are read only inside this folder; empty: the model's own folder. A reference
+  // outside (a buffer URI ../../etc/passwd from a stranger's model) is an Error naming it; a
+  // texture outside is a warning and not read, as a missing texture. Set a wider
   // folder (even "/") for models whose files are spread over several folders.
   std::string references_root = {};
 };

@@ -176,4 +176,16 @@ std::string inner_extension(const std::string& path) {
   return dot == std::string::npos || dot == 0 ? std::string{} : lower(inner.substr(dot + 1));
 }
 
+bool inside_folder(const std::filesystem::path& folder, const std::string& file) {
+  std::error_code folder_error, file_error;
+  const std::filesystem::path root =
+      std::filesystem::weakly_canonical(std::filesystem::absolute(folder), folder_error);
+  const std::filesystem::path resolved =
+      std::filesystem::weakly_canonical(std::filesystem::absolute(file), file_error);
+  if (folder_error || file_error || root.empty()) return false;
+  const auto [end, ignored] =
+      std::mismatch(root.begin(), root.end(), resolved.begin(), resolved.end());
+  return end == root.end();
+}
+
 }  // namespace splitray

@@ -3,6 +3,7 @@
 // wrong (missing, a directory, empty, too big, corrupt or truncated gzip, gzip bombs).
 #include <algorithm>
 #include <cstddef>
+#include <filesystem>
 #include <span>
 #include <string>
 #include <vector>
@@ -42,5 +43,10 @@ Bytes read_maybe_gzipped(const std::string& path, std::size_t max_bytes = input_
 
 // The lower-case extension without the dot ("obj"), looking through a .gz suffix.
 std::string inner_extension(const std::string& path);
+
+// True when `file` lies inside `folder` once both are resolved (`..`, links; relative paths
+// from the working directory): the one rule for every file a model or scene refers to
+// (assimp's references, textures, AFF includes).
+bool inside_folder(const std::filesystem::path& folder, const std::string& file);
 
 }  // namespace splitray
