@@ -29,15 +29,17 @@ case "$mode" in
     ;;
   thread)
     dir=build-tsan
-    tests=(kd_builders_test kd_test bih_test bvh_test knn_test ray_sets_test render_test hybrid_test)
+    tests=(kd_builders_test kd_test kd_coherent_test animated_accel_test bih_test bvh_test knn_test
+           ray_sets_test render_test hybrid_test)
     nice cmake -S . -B "$dir" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSPLITRAY_SANITIZE=thread \
       -DSPLITRAY_WITH_PYTHON=OFF -DSPLITRAY_WITH_MPI=OFF "${launcher[@]}"
     nice cmake --build "$dir" -j "$jobs" --target "${tests[@]}"
     # Within those executables: the tests that run several threads against one (the trees and
     # answers must not depend on the thread count), batched against single queries, and the
-    # renderers (TBB-parallel tiles; the hybrid renderer's CPU and GPU halves).
+    # renderers (TBB-parallel tiles; the hybrid renderer's CPU and GPU halves), and the
+    # coherent kd rebuild and animated structures (parallel subtree tasks, every frame).
     regex="^($(IFS='|'; echo "${tests[*]}"))\$"
-    GTEST_FILTER=${GTEST_FILTER:-'*Thread*:*Batch*:Whitted*:Hybrid*:Render*'} \
+    GTEST_FILTER=${GTEST_FILTER:-'*Thread*:*Batch*:Whitted*:Hybrid*:Render*:KdCoherent.EqualsBrute*:AnimatedAccel.Every*'} \
       ctest --test-dir "$dir" --output-on-failure -j "$jobs" --timeout 3000 -R "$regex" "$@"
     ;;
   *)
