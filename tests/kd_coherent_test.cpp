@@ -67,7 +67,9 @@ void check_sequence(const std::vector<std::vector<Triangle>>& frames, const std:
     const auto ta = a.next_frame(frames[f], sa);
     const auto tb = b.next_frame(frames[f], sb);
     EXPECT_TRUE(same_tree(ta->tree(), tb->tree())) << name << " frame " << f;
-    if (f == 0) EXPECT_TRUE(sa.from_scratch) << name;
+    if (f == 0) {
+      EXPECT_TRUE(sa.from_scratch) << name;
+    }
     EXPECT_EQ(sa.from_scratch, !sa.reason.empty()) << name << " frame " << f << ": " << sa.reason;
     if (f > 0) {
       reused += sa.reused_nodes + sa.reoptimised_nodes;

@@ -1,7 +1,5 @@
 #include "splitray/query/neural_point_build.hpp"
 
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -9,6 +7,7 @@
 #include "splitray/accel/neural/neural_accel.hpp"
 #include "splitray/accel/neural/neural_sampling.hpp"
 #include "splitray/core/errors.hpp"
+#include "splitray/core/parallel.hpp"
 #include "splitray/core/timer.hpp"
 
 namespace splitray {
@@ -233,7 +232,7 @@ PointBuildOutput expand_point_top(std::span<const Vec3> points, const Aabb& boun
   }
   std::vector<int> leaves;
   ex.assign_cells(0, bounds, leaves);
-  tbb::parallel_for(std::size_t{0}, leaves.size(), [&](std::size_t k) {
+  parallel_for_each_index(leaves.size(), [&](std::size_t k) {
     const auto node = static_cast<std::size_t>(leaves[k]);
     const std::vector<std::uint32_t>& ids = ex.ids[node];
     if (ids.empty()) return;  // only a lone root cell can be empty, and points exist

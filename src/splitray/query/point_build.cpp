@@ -1,7 +1,5 @@
 #include "splitray/query/point_build.hpp"
 
-#include <tbb/parallel_invoke.h>
-
 #if defined(__AVX512F__)
 #include <immintrin.h>
 #endif
@@ -19,6 +17,7 @@
 #include <utility>
 
 #include "splitray/core/errors.hpp"
+#include "splitray/core/parallel.hpp"
 
 namespace splitray {
 namespace {
@@ -89,8 +88,7 @@ class Builder {
         coords_(scratch<float>(3 * 2 * 3 * points.size())),
         ids_(scratch<std::uint32_t>(3 * 2 * points.size())) {
     // For each axis, buffer 0 starts sorted by that axis; buffer 1 receives partitions.
-    tbb::parallel_invoke([&] { fill(points, 0); }, [&] { fill(points, 1); },
-                         [&] { fill(points, 2); });
+    parallel_invoke([&] { fill(points, 0); }, [&] { fill(points, 1); }, [&] { fill(points, 2); });
   }
 
   void build(std::vector<PointNode>& out, std::size_t b, std::size_t e, const Aabb& cell, int depth,
@@ -124,8 +122,8 @@ class Builder {
     out.push_back(node);
     if (n >= kParallelPoints) {
       std::vector<PointNode> below_nodes, above_nodes;
-      tbb::parallel_invoke([&] { build(below_nodes, b, m, below, depth + 1, child_parity); },
-                           [&] { build(above_nodes, m, e, above, depth + 1, child_parity); });
+      parallel_invoke([&] { build(below_nodes, b, m, below, depth + 1, child_parity); },
+                      [&] { build(above_nodes, m, e, above, depth + 1, child_parity); });
       out[self].index = static_cast<std::uint32_t>(1 + below_nodes.size());
       out.insert(out.end(), below_nodes.begin(), below_nodes.end());
       out.insert(out.end(), above_nodes.begin(), above_nodes.end());
@@ -192,7 +190,7 @@ class Builder {
     std::array<Split, 3> best;
     const auto sweep_axis = [&](int a) { best[a] = sweep(b, e, cell, a, parity); };
     if (e - b >= kParallelAxes)
-      tbb::parallel_invoke([&] { sweep_axis(0); }, [&] { sweep_axis(1); }, [&] { sweep_axis(2); });
+      parallel_invoke([&] { sweep_axis(0); }, [&] { sweep_axis(1); }, [&] { sweep_axis(2); });
     else
       for (int a = 0; a < 3; ++a) sweep_axis(a);
     Split split;
@@ -325,7 +323,7 @@ class Builder {
     };
     const int j0 = (a + 1) % 3, j1 = (a + 2) % 3;
     if (e - b >= kParallelAxes)
-      tbb::parallel_invoke([&] { move_axis(j0); }, [&] { move_axis(j1); });
+      parallel_invoke([&] { move_axis(j0); }, [&] { move_axis(j1); });
     else {
       move_axis(j0);
       move_axis(j1);

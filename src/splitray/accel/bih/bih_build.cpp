@@ -1,7 +1,6 @@
 // BIH construction: references partitioned in place by their box centres (so every
 // primitive lands in exactly one child), clip planes from the children's extents, subtrees
 // above a size built as parallel tasks and laid out deterministically (piece_tree.hpp).
-#include <tbb/parallel_invoke.h>
 
 #include <algorithm>
 #include <atomic>
@@ -324,8 +323,8 @@ class BihBuilder {
 
     if (slot == 0 && piece.nodes.size() == 1 && n >= kTaskRefs) {
       piece.nodes[0] = BihNode::make_interior(axis, left_max, right_min);
-      tbb::parallel_invoke([&] { piece.kids[0] = build_piece(left); },
-                           [&] { piece.kids[1] = build_piece(right); });
+      parallel_invoke([&] { piece.kids[0] = build_piece(left); },
+                      [&] { piece.kids[1] = build_piece(right); });
       return;
     }
     const auto pair = static_cast<std::uint32_t>(piece.nodes.size());

@@ -1,6 +1,5 @@
 // Binned SAH BVH: references partitioned in place, subtrees above a size built as parallel
 // tasks into pieces of their own (the layout never depends on the thread count).
-#include <tbb/parallel_invoke.h>
 
 #include <algorithm>
 #include <atomic>
@@ -69,8 +68,8 @@ class BinnedBuilder {
 
     if (slot == 0 && piece.nodes.size() == 1 && n >= kTaskRefs) {
       piece.nodes[0] = BvhNode::make_interior(bounds.box, axis);
-      tbb::parallel_invoke([&] { piece.kids[0] = build_piece(begin, mid, left, depth + 1); },
-                           [&] { piece.kids[1] = build_piece(mid, end, right, depth + 1); });
+      parallel_invoke([&] { piece.kids[0] = build_piece(begin, mid, left, depth + 1); },
+                      [&] { piece.kids[1] = build_piece(mid, end, right, depth + 1); });
       return;
     }
     const auto pair = static_cast<std::uint32_t>(piece.nodes.size());

@@ -1,7 +1,5 @@
 #include "splitray/accel/bvh/kd_top_bvh.hpp"
 
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <numeric>
 
@@ -144,7 +142,7 @@ Bvh build_top_bvh(std::span<const Triangle> triangles, std::span<const TopCell> 
   Timer timer;
   const std::size_t chunks = (triangles.size() + kAssignChunk - 1) / kAssignChunk;
   std::vector<std::vector<std::pair<std::uint32_t, BvhRef>>> found(chunks);
-  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t k) {
+  parallel_for_each_index(chunks, [&](std::size_t k) {
     const std::size_t end = std::min(triangles.size(), (k + 1) * kAssignChunk);
     for (std::size_t i = k * kAssignChunk; i < end; ++i) {
       const std::size_t before = found[k].size();
@@ -173,7 +171,7 @@ Bvh build_top_bvh(std::span<const Triangle> triangles, std::span<const TopCell> 
   BvhBuildOptions leaf_options = options;
   leaf_options.max_depth = std::max(1, std::min(options.max_depth, 64) - depth);
   std::vector<std::unique_ptr<BvhPiece>> expanded(leaf_cells.size());
-  tbb::parallel_for(std::size_t{0}, leaf_cells.size(), [&](std::size_t l) {
+  parallel_for_each_index(leaf_cells.size(), [&](std::size_t l) {
     if (refs[l].empty()) return;
     BvhBuildResult built;
     switch (expander) {

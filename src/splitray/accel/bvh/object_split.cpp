@@ -1,13 +1,12 @@
 #include "splitray/accel/bvh/object_split.hpp"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_reduce.h>
-
 #include <algorithm>
 #include <array>
 #include <limits>
 #include <utility>
 #include <vector>
+
+#include "splitray/core/parallel.hpp"
 
 namespace splitray {
 
@@ -65,16 +64,10 @@ RefBounds ref_bounds(std::span<const BvhRef> refs) {
     return b.bounds();
   };
   if (refs.size() < kParallelRefs) return chunk(0, refs.size());
-  return tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, refs.size(), 8192), RefBounds{},
-      [&](const tbb::blocked_range<std::size_t>& r, RefBounds acc) {
-        acc.extend(chunk(r.begin(), r.end()));
-        return acc;
-      },
-      [](RefBounds a, const RefBounds& b) {
-        a.extend(b);
-        return a;
-      });
+  return parallel_reduce(
+      refs.size(), 8192, RefBounds{},
+      [&](std::size_t begin, std::size_t end, RefBounds& acc) { acc.extend(chunk(begin, end)); },
+      [](RefBounds& total, const RefBounds& part) { total.extend(part); });
 }
 
 CenterBins::CenterBins(const Aabb& centers, int bins)
@@ -107,16 +100,9 @@ ObjectSplit find_object_split(std::span<const BvhRef> refs, const RefBounds& bou
   if (!parallel) {
     bin_all(0, refs.size(), local);
   } else {
-    merged = std::make_unique<Bins>(tbb::parallel_reduce(
-        tbb::blocked_range<std::size_t>(0, refs.size(), 8192), Bins(n_bins),
-        [&](const tbb::blocked_range<std::size_t>& range, Bins acc) {
-          bin_all(range.begin(), range.end(), acc);
-          return acc;
-        },
-        [](Bins a, const Bins& b) {
-          a.merge(b);
-          return a;
-        }));
+    merged = std::make_unique<Bins>(
+        parallel_reduce(refs.size(), 8192, Bins(n_bins), bin_all,
+                        [](Bins& total, const Bins& part) { total.merge(part); }));
     bins = merged.get();
   }
 

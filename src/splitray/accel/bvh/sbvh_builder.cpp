@@ -5,7 +5,6 @@
 // split sends each straddling reference to both sides, clipped, unless moving it whole to one
 // side is cheaper (reference unsplitting, §4.4). References are split at planes by the
 // conservative clip of accel/triangle_clip.hpp (split_triangle_bounds).
-#include <tbb/parallel_invoke.h>
 
 #include <algorithm>
 #include <atomic>
@@ -14,6 +13,7 @@
 #include "splitray/accel/bvh/bvh_build.hpp"
 #include "splitray/accel/bvh/object_split.hpp"
 #include "splitray/accel/triangle_clip.hpp"
+#include "splitray/core/parallel.hpp"
 
 namespace splitray {
 
@@ -222,7 +222,7 @@ class SbvhBuilder {
 
     if (slot == 0 && piece.nodes.size() == 1 && n >= kTaskRefs) {
       piece.nodes[0] = BvhNode::make_interior(bounds.box, axis);
-      tbb::parallel_invoke(
+      parallel_invoke(
           [&] {
             piece.kids[0] = build_piece(std::move(left), left_bounds, depth + 1, left_budget);
           },

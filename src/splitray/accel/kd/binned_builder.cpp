@@ -9,7 +9,6 @@
 // on the data, so the tree is the same for any thread count.
 //
 #include <tbb/enumerable_thread_specific.h>
-#include <tbb/parallel_invoke.h>
 
 #include <string>
 #include <vector>
@@ -21,6 +20,7 @@
 #include "splitray/accel/kd/kd_emit.hpp"
 #include "splitray/accel/kd/kd_sah.hpp"
 #include "splitray/core/errors.hpp"
+#include "splitray/core/parallel.hpp"
 
 namespace splitray {
 
@@ -62,7 +62,7 @@ class BinnedBuilder {
     part->split = split.position;
     std::uint64_t eb = 0, ea = 0;
     // Structured bindings captured by copy: clang 14 (the fuzz build) cannot capture them by &.
-    tbb::parallel_invoke(
+    parallel_invoke(
         [&, below_cell = below_cell] {
           part->below = build_task(std::move(below), below_cell, below_content, depth + 1, eb);
         },

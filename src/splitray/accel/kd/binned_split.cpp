@@ -1,7 +1,5 @@
 #include "splitray/accel/kd/binned_split.hpp"
 
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <array>
 #include <limits>
@@ -9,6 +7,7 @@
 
 #include "splitray/accel/kd/golden_search.hpp"
 #include "splitray/accel/triangle_clip.hpp"
+#include "splitray/core/parallel.hpp"
 
 namespace splitray {
 
@@ -144,7 +143,7 @@ BinnedSplit find_binned_split(std::span<const PrimRef> prims, const Aabb& cell, 
   if (parallel && prims.size() > kChunk) {
     const std::size_t chunks = (prims.size() + kChunk - 1) / kChunk;
     std::vector<std::uint32_t> partial(chunks * slots, 0u);
-    tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+    parallel_for_each_index(chunks, [&](std::size_t c) {
       const std::size_t begin = c * kChunk, end = std::min(prims.size(), begin + kChunk);
       bin_prims(prims.subspan(begin, end - begin), cell, axes, active, faces,
                 partial.data() + c * slots, stride);
@@ -211,7 +210,7 @@ BinnedSplit find_binned_split(std::span<const PrimRef> prims, const Aabb& cell, 
   if (parallel && n > kChunk) {
     const std::size_t chunks = (n + kChunk - 1) / kChunk;
     std::vector<std::size_t> counts(2 * chunks);
-    tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+    parallel_for_each_index(chunks, [&](std::size_t c) {
       const std::size_t begin = c * kChunk, end = std::min(n, begin + kChunk);
       count_sides(prims.subspan(begin, end - begin), best, counts[2 * c], counts[2 * c + 1]);
     });
@@ -270,7 +269,7 @@ void partition_binned(std::span<const PrimRef> prims, std::span<const Triangle> 
   }
   const std::size_t chunks = (prims.size() + kChunk - 1) / kChunk;
   std::vector<std::size_t> offsets(2 * (chunks + 1), 0);
-  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+  parallel_for_each_index(chunks, [&](std::size_t c) {
     const std::size_t begin = c * kChunk, end = std::min(prims.size(), begin + kChunk);
     count_sides(prims.subspan(begin, end - begin), split, offsets[2 * (c + 1)],
                 offsets[2 * (c + 1) + 1]);
@@ -280,7 +279,7 @@ void partition_binned(std::span<const PrimRef> prims, std::span<const Triangle> 
     offsets[2 * (c + 1) + 1] += offsets[2 * c + 1];
   }
   std::vector<Aabb> contents(2 * chunks);
-  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+  parallel_for_each_index(chunks, [&](std::size_t c) {
     const std::size_t begin = c * kChunk, end = std::min(prims.size(), begin + kChunk);
     write(begin, end, offsets[2 * c], offsets[2 * c + 1], contents[2 * c], contents[2 * c + 1]);
   });

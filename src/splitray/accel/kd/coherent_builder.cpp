@@ -18,7 +18,6 @@
 #include "splitray/accel/kd/coherent_builder.hpp"
 
 #include <tbb/enumerable_thread_specific.h>
-#include <tbb/parallel_invoke.h>
 
 #include <algorithm>
 #include <cmath>
@@ -191,7 +190,7 @@ class CoherentFrame {
     const std::span<const PrimRef> below(below_refs.get(), plan.split.n_below);
     const std::span<const PrimRef> above(above_refs.get(), plan.split.n_above);
     Built b, a;
-    tbb::parallel_invoke(
+    parallel_invoke(
         [&] {
           part->below = task(shape.below(), below, c.below_cell, c.below_content, depth + 1,
                              path_child(path, false), b);

@@ -27,7 +27,6 @@
 // sorted lists to keep), which search their predicted bracket in one pass over their
 // bounds; a node whose prediction fails gets its sorted lists made on the spot.
 #include <tbb/enumerable_thread_specific.h>
-#include <tbb/parallel_invoke.h>
 
 #include <algorithm>
 #include <cmath>
@@ -40,6 +39,7 @@
 #include "splitray/accel/kd/kd_emit.hpp"
 #include "splitray/accel/kd/kd_sah.hpp"
 #include "splitray/accel/kd/predicted_builder.hpp"
+#include "splitray/core/parallel.hpp"
 
 namespace splitray {
 
@@ -154,7 +154,7 @@ class GoldenBuilder {
       rec->below = std::make_unique<RecordPart>();
       rec->above = std::make_unique<RecordPart>();
     }
-    tbb::parallel_invoke(
+    parallel_invoke(
         [&] {
           part->below = build_task(below, below_cell, depth + 1, path_child(path, false), eb,
                                    rec ? rec->below.get() : nullptr);
@@ -366,7 +366,7 @@ class GoldenBuilder {
                                           cell.hi[axis]);
       };
       if (parallel)
-        tbb::parallel_invoke([&] { search(0); }, [&] { search(1); }, [&] { search(2); });
+        parallel_invoke([&] { search(0); }, [&] { search(1); }, [&] { search(2); });
       else
         for (int axis = 0; axis < 3; ++axis) search(axis);
     }

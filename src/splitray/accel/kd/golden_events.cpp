@@ -1,7 +1,5 @@
 #include "splitray/accel/kd/golden_events.hpp"
 
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <bit>
 #include <vector>
@@ -145,7 +143,7 @@ GoldenPrims make_golden_prims(std::span<const Triangle> triangles, const Aabb& c
     }
   };
   if (parallel) {
-    tbb::parallel_for(std::size_t{0}, std::size_t{9}, fill);
+    parallel_for_each_index(std::size_t{9}, fill);
   } else {
     for (std::size_t list = 0; list < 9; ++list) fill(list);
   }
@@ -341,7 +339,7 @@ void split_golden_prims(GoldenPrims& node, std::span<const Triangle> triangles, 
     }
   };
   if (parallel) {
-    tbb::parallel_for(std::size_t{0}, std::size_t{9}, [&](std::size_t list) {
+    parallel_for_each_index(std::size_t{9}, [&](std::size_t list) {
       std::vector<std::uint64_t> extra(n_straddlers);
       make_list(list, extra.data());
     });

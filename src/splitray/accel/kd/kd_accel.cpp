@@ -1,7 +1,5 @@
 #include "splitray/accel/kd/kd_accel.hpp"
 
-#include <tbb/parallel_invoke.h>
-
 #include <algorithm>
 
 #include "splitray/accel/kd/kd_sah.hpp"
@@ -110,8 +108,8 @@ KdAccel::KdAccel(KdTree tree, std::span<const Triangle> triangles, const BuildCo
                                  triangles.data());
     });
   };
-  tbb::parallel_invoke([&] { stats_ = kd_tree_stats(tree_, config); },
-                       [&] { wide_ = KdWideTree::from(tree_); }, fill_rows);
+  parallel_invoke([&] { stats_ = kd_tree_stats(tree_, config); },
+                  [&] { wide_ = KdWideTree::from(tree_); }, fill_rows);
   if (stats_.max_depth > kKdDepthLimit)  // the traversal stack holds one entry per level
     throw Error("--accel kd",
                 "the tree is deeper than " + std::to_string(kKdDepthLimit) + " levels");

@@ -5,8 +5,6 @@
 // Triangles that straddle the plane are clipped to each child cell (perfect splits) and only
 // their new events are sorted and merged in. Subtrees build as TBB tasks; every decision
 // depends on the data only, so the tree is the same for any thread count.
-#include <tbb/parallel_invoke.h>
-#include <tbb/task_group.h>
 
 #include <algorithm>
 #include <array>
@@ -18,6 +16,7 @@
 #include "splitray/accel/kd/kd_sah.hpp"
 #include "splitray/accel/triangle_clip.hpp"
 #include "splitray/core/errors.hpp"
+#include "splitray/core/parallel.hpp"
 
 namespace splitray {
 
@@ -122,15 +121,8 @@ class SahBuilder {
     node = Node{};  // free the parent's lists before descending
     part->axis = split.axis;
     part->split = split.pos;
-    tbb::task_group group;
-    group.run([&] { part->below = build(std::move(below), depth + 1); });
-    try {
-      part->above = build(std::move(above), depth + 1);
-    } catch (...) {
-      group.wait();  // the task refers to this frame
-      throw;
-    }
-    group.wait();
+    parallel_invoke([&] { part->below = build(std::move(below), depth + 1); },
+                    [&] { part->above = build(std::move(above), depth + 1); });
     return part;
   }
 
@@ -174,7 +166,7 @@ class SahBuilder {
     std::array<std::uint64_t, 3> evals{};
     const auto sweep = [&](int axis) { best[axis] = sweep_axis(node, axis, evals[axis]); };
     if (node.tris.size() >= kParallelSweepPrims) {
-      tbb::parallel_invoke([&] { sweep(0); }, [&] { sweep(1); }, [&] { sweep(2); });
+      parallel_invoke([&] { sweep(0); }, [&] { sweep(1); }, [&] { sweep(2); });
     } else {
       for (int axis = 0; axis < 3; ++axis) sweep(axis);
     }
@@ -348,9 +340,9 @@ KdBuildResult build_kd_sah(std::span<const Triangle> triangles, const Aabb& boun
     root.tris.push_back(static_cast<std::uint32_t>(i));
     add_events(b, index, events);
   }
-  tbb::parallel_invoke([&] { std::sort(events[0].begin(), events[0].end()); },
-                       [&] { std::sort(events[1].begin(), events[1].end()); },
-                       [&] { std::sort(events[2].begin(), events[2].end()); });
+  parallel_invoke([&] { std::sort(events[0].begin(), events[0].end()); },
+                  [&] { std::sort(events[1].begin(), events[1].end()); },
+                  [&] { std::sort(events[2].begin(), events[2].end()); });
   for (int axis = 0; axis < 3; ++axis) {
     root.axis_begin[axis] = root.events.size();
     root.events.insert(root.events.end(), events[axis].begin(), events[axis].end());

@@ -1,7 +1,5 @@
 #include "splitray/accel/neural/neural_accel.hpp"
 
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 
 #include "splitray/accel/bvh/bvh.hpp"
@@ -11,6 +9,7 @@
 #include "splitray/accel/neural/model_path.hpp"
 #include "splitray/accel/neural/neural_sampling.hpp"
 #include "splitray/core/errors.hpp"
+#include "splitray/core/parallel.hpp"
 #include "splitray/core/timer.hpp"
 
 namespace splitray {
@@ -185,7 +184,7 @@ KdTree expand_top_kd(std::span<const Triangle> triangles, const NeuralTop& top, 
   const int total_depth = kd_max_depth(config, triangles.size());
   std::vector<KdTree> subtrees(top.nodes.size());
   std::vector<std::uint64_t> evals(leaves.size(), 0);
-  tbb::parallel_for(std::size_t{0}, leaves.size(), [&](std::size_t k) {
+  parallel_for_each_index(leaves.size(), [&](std::size_t k) {
     const auto [node, level] = leaves[k];
     const std::vector<std::uint32_t>& ids = per_node[static_cast<std::size_t>(node)];
     const Aabb& cell = top.nodes[static_cast<std::size_t>(node)].box;
