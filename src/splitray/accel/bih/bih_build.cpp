@@ -11,7 +11,7 @@
 #include "splitray/accel/bih/bih.hpp"
 #include "splitray/accel/bvh/object_split.hpp"
 #include "splitray/accel/bvh/piece_tree.hpp"
-#include "splitray/accel/bvh/robust_ray.hpp"
+#include "splitray/accel/robust_ray.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/core/parallel.hpp"
 

@@ -6,7 +6,7 @@
 #include <algorithm>
 
 #include "splitray/accel/bih/bih.hpp"
-#include "splitray/accel/bvh/robust_ray.hpp"
+#include "splitray/accel/robust_ray.hpp"
 
 namespace splitray {
 

@@ -2,7 +2,7 @@
 
 #include <algorithm>
 
-#include "splitray/accel/bvh/robust_ray.hpp"
+#include "splitray/accel/robust_ray.hpp"
 #include "splitray/accel/sah_cost.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/core/parallel.hpp"

@@ -13,7 +13,7 @@
 #include <limits>
 #include <optional>
 
-#include "splitray/accel/bvh/robust_ray.hpp"
+#include "splitray/accel/robust_ray.hpp"
 #include "splitray/core/triangle_simd.hpp"
 
 namespace splitray {
