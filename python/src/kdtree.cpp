@@ -115,14 +115,27 @@ class CoreKDTree {
     }
     py::array out = py::module_::import("numpy").attr("empty")(nq, "dtype"_a = "object");
     auto** cells = static_cast<PyObject**>(out.mutable_data());
+    // Most of this call is making Python objects: each index becomes one int object shared by
+    // every list that holds it, and the cyclic collector (which the millions of new lists would
+    // otherwise wake many times over) pauses meanwhile; neither changes the answers.
+    std::vector<PyObject*> ints(index_->points(), nullptr);
+    const bool collecting = PyGC_Disable() != 0;
     for (std::size_t i = 0; i < nq; ++i) {
       const std::span<const std::uint32_t> ids = found.indices_of(i);
-      py::list list(ids.size());
-      for (std::size_t j = 0; j < ids.size(); ++j)
-        PyList_SET_ITEM(list.ptr(), static_cast<py::ssize_t>(j), PyLong_FromUnsignedLong(ids[j]));
+      PyObject* list = PyList_New(static_cast<py::ssize_t>(ids.size()));
+      if (!list) break;
+      for (std::size_t j = 0; j < ids.size(); ++j) {
+        PyObject*& cell = ints[ids[j]];
+        if (!cell) cell = PyLong_FromUnsignedLong(ids[j]);
+        Py_XINCREF(cell);
+        PyList_SET_ITEM(list, static_cast<py::ssize_t>(j), cell);
+      }
       Py_XDECREF(cells[i]);  // the None numpy.empty put there
-      cells[i] = list.release().ptr();
+      cells[i] = list;
     }
+    for (PyObject* cell : ints) Py_XDECREF(cell);
+    if (collecting) PyGC_Enable();
+    if (PyErr_Occurred()) throw py::error_already_set();
     return out;
   }
 

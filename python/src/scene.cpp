@@ -3,6 +3,7 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <memory>
 #include <mutex>
@@ -25,17 +26,26 @@ std::string join(const std::vector<std::string>& names) {
   return out;
 }
 
-// (N, 6) origins and directions as the library's rays. A ray with a non-finite component or
-// a zero direction misses (Open3D's answer): Accel's domain (splitray/core/coordinates.hpp).
-std::vector<Ray> to_rays(const float* r, std::size_t n, float tnear, float tfar) {
-  std::vector<Ray> rays(n);
-  parallel_chunks(n, 4096, [&](std::size_t b, std::size_t e) {
-    for (std::size_t i = b; i < e; ++i) {
-      const float* p = r + 6 * i;
-      rays[i] = Ray{{p[0], p[1], p[2]}, {p[3], p[4], p[5]}, tnear, tfar};
+// The (N, 6) origins and directions as the library's rays, kRayBlock at a time into a buffer of
+// each worker's own: body(first, rays) sees rays first .. first + rays.size() - 1. Tracing block
+// by block writes the answers straight into the caller's arrays, with no array of all the rays
+// or all the hits between. A ray with a non-finite component or a zero direction misses
+// (Open3D's answer): Accel's domain (splitray/core/coordinates.hpp).
+constexpr std::size_t kRayBlock = 256;
+
+template <typename Body>
+void for_ray_blocks(const float* r, std::size_t n, float tnear, float tfar, const Body& body) {
+  parallel_chunks((n + kRayBlock - 1) / kRayBlock, 1, [&](std::size_t b, std::size_t e) {
+    std::array<Ray, kRayBlock> rays;
+    for (std::size_t block = b; block < e; ++block) {
+      const std::size_t first = block * kRayBlock, count = std::min(kRayBlock, n - first);
+      for (std::size_t i = 0; i < count; ++i) {
+        const float* p = r + 6 * (first + i);
+        rays[i] = Ray{{p[0], p[1], p[2]}, {p[3], p[4], p[5]}, tnear, tfar};
+      }
+      body(first, std::span<const Ray>(rays.data(), count));
     }
   });
-  return rays;
 }
 
 py::object optional_float(const std::optional<double>& v) {
@@ -136,15 +146,14 @@ class Scene {
       py::gil_scoped_release release;
       std::shared_lock lock(mutex_);
       tbb::task_arena(workers).execute([&] {
-        const std::vector<Ray> in = to_rays(r, n, 0, kInfinity);
-        // The structure's batched call, then one pass straight into the output arrays (the
-        // normals of MeshScene::fill_normal, without its intermediate array of SurfaceHits).
-        std::vector<Hit> hits(n);
-        scene_->accel().intersect(in, hits);
         const MeshBuffers& mesh = scene_->mesh();
-        parallel_chunks(n, 4096, [&](std::size_t b, std::size_t e) {
-          for (std::size_t i = b; i < e; ++i) {
-            const Hit& h = hits[i];
+        for_ray_blocks(r, n, 0, kInfinity, [&](std::size_t first, std::span<const Ray> block) {
+          std::array<Hit, kRayBlock> hits;
+          scene_->accel().intersect(block, std::span<Hit>(hits.data(), block.size()));
+          // The normals of MeshScene::fill_normal, without its intermediate SurfaceHits.
+          for (std::size_t j = 0; j < block.size(); ++j) {
+            const Hit& h = hits[j];
+            const std::size_t i = first + j;
             tp[i] = h.t;
             idp[i] = h.prim;
             gp[i] = h.found() ? 0 : kInvalidId;
@@ -182,11 +191,10 @@ class Scene {
       py::gil_scoped_release release;
       std::shared_lock lock(mutex_);
       tbb::task_arena(workers).execute([&] {
-        const std::vector<Ray> in = to_rays(r, n, tnear, tfar);
-        std::vector<std::uint8_t> occluded(n);
-        scene_->occluded(in, occluded);
-        parallel_chunks(n, 4096, [&](std::size_t b, std::size_t e) {
-          for (std::size_t i = b; i < e; ++i) op[i] = occluded[i] != 0;
+        for_ray_blocks(r, n, tnear, tfar, [&](std::size_t first, std::span<const Ray> block) {
+          std::array<std::uint8_t, kRayBlock> occluded;
+          scene_->occluded(block, std::span<std::uint8_t>(occluded.data(), block.size()));
+          for (std::size_t j = 0; j < block.size(); ++j) op[first + j] = occluded[j] != 0;
         });
       });
     }
