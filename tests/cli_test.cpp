@@ -405,7 +405,9 @@ TEST_F(Cli, AnimateComparesEveryStrategyOnTheSameFrames) {
     for (const char* key : {"median_update_ms", "median_trace_ms", "median_frame_ms"})
       EXPECT_GT(s.value(key, 0.0), 0.0) << name << " " << key;
     EXPECT_GT(s.value("frame_ms_vs_best_embree", 0.0), 0.0) << name;
-    if (s.value("exact", false)) EXPECT_EQ(s.value("hit_mismatches", -1), 0) << name;
+    if (s.value("exact", false)) {
+      EXPECT_EQ(s.value("hit_mismatches", -1), 0) << name;
+    }
   }
   // Per frame: update and trace times are positive and the frame time is their sum (the CSV
   // rounds each to 1e-4 ms); 7 strategies x 3 frames.

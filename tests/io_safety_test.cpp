@@ -197,7 +197,7 @@ TEST(MeshLoad, TexturesStayInTheModelFolder) {
     return std::pair{mesh.materials.at(0).diffuse_texture != nullptr, warnings};
   };
   EXPECT_TRUE(load("inside.png", "").first);
-  for (const std::string texture :
+  for (const std::string& texture :
        {std::string("../outside.png"), (dir / "outside.png").string(), std::string("link.png")}) {
     const auto [textured, warnings] = load(texture, "");
     EXPECT_FALSE(textured) << texture;

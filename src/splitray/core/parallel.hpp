@@ -4,16 +4,18 @@
 // count. Work is split so that results never depend on which thread ran what.
 //
 // ThreadSanitizer cannot see how TBB orders work (its scheduler synchronises with atomics inside
-// Debian's uninstrumented libtbb.so), so in TSan builds each construct states its real ordering
-// itself: everything before it happens before every task it runs, and every task happens
-// before everything after it. Tasks are not ordered among themselves, so races between them
-// are still found.
+// Debian's uninstrumented libtbb.so), so in TSan builds the same constructs run on plain threads
+// whose start and join it does see: the caller runs its share, helpers are started for the
+// rest (at most kTsanHelpers alive in the whole process, else the work runs inline) and joined
+// before the construct returns. Chunks are handed out by a relaxed counter, which orders
+// nothing, so races between tasks are still found; the worker limits below are honoured.
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
 
 #include <algorithm>
 #include <cstddef>
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -25,8 +27,10 @@
 #endif
 #endif
 #if defined(SPLITRAY_TSAN)
-extern "C" void __tsan_acquire(void* address);
-extern "C" void __tsan_release(void* address);
+#include <atomic>
+#include <exception>
+#include <mutex>
+#include <thread>
 #endif
 
 namespace splitray {
@@ -46,71 +50,88 @@ class ThreadLimit {
 
 int hardware_threads();
 
+#if defined(SPLITRAY_TSAN)
 namespace detail {
 
-// The fork and join edges of one parallel construct, for ThreadSanitizer (nothing otherwise).
-class ForkJoin {
- public:
-#if defined(SPLITRAY_TSAN)
-  ForkJoin() { __tsan_release(&fork_); }
-  void joined() { __tsan_acquire(&join_); }
-  // Alive while one task runs: it sees what preceded the construct and publishes its work.
-  class Task {
-   public:
-    explicit Task(ForkJoin& sync) : sync_(sync) { __tsan_acquire(&sync_.fork_); }
-    ~Task() { __tsan_release(&sync_.join_); }
-    Task(const Task&) = delete;
-    Task& operator=(const Task&) = delete;
+inline constexpr int kTsanHelpers = 8;
 
-   private:
-    ForkJoin& sync_;
+// The workers a construct may use here: the smallest of the ThreadLimit in force and the
+// enclosing task_arena's concurrency.
+int worker_limit();
+
+// Runs work(worker) for worker 0 (the caller) .. count - 1 (helper threads, as many as the
+// process-wide budget allows; the rest of the work falls to whoever runs) and joins them; the
+// first exception is rethrown after all have finished.
+template <typename Work>
+void run_workers(int count, const Work& work) {
+  static std::atomic<int> helpers_alive{0};
+  int helpers = 0;
+  while (helpers + 1 < count &&
+         helpers_alive.fetch_add(1, std::memory_order_relaxed) < kTsanHelpers)
+    ++helpers;
+  if (helpers + 1 < count) helpers_alive.fetch_sub(1, std::memory_order_relaxed);
+  std::exception_ptr error;
+  std::mutex error_mutex;
+  const auto guarded = [&](int worker) {
+    try {
+      work(worker);
+    } catch (...) {
+      const std::lock_guard lock(error_mutex);
+      if (!error) error = std::current_exception();
+    }
   };
+  std::vector<std::thread> threads;
+  for (int h = 1; h <= helpers; ++h) threads.emplace_back(guarded, h);
+  guarded(0);
+  for (std::thread& t : threads) t.join();
+  helpers_alive.fetch_sub(helpers, std::memory_order_relaxed);
+  if (error) std::rethrow_exception(error);
+}
 
- private:
-  char fork_ = 0, join_ = 0;
-#else
-  void joined() {}
-  struct Task {
-    explicit Task(ForkJoin&) {}
-  };
-#endif
-};
-
-// Joins on every exit, also when a task throws.
-class JoinGuard {
- public:
-  explicit JoinGuard(ForkJoin& sync) : sync_(sync) {}
-  ~JoinGuard() { sync_.joined(); }
-  JoinGuard(const JoinGuard&) = delete;
-  JoinGuard& operator=(const JoinGuard&) = delete;
-
- private:
-  ForkJoin& sync_;
-};
+// Calls item(i) for every i in [0, items) on up to worker_limit() workers.
+template <typename Item>
+void run_items(std::size_t items, const Item& item) {
+  if (items == 0) return;
+  std::atomic<std::size_t> next{0};
+  const int workers = static_cast<int>(std::min<std::size_t>(items, worker_limit()));
+  run_workers(workers, [&](int) {
+    for (std::size_t i; (i = next.fetch_add(1, std::memory_order_relaxed)) < items;) item(i);
+  });
+}
 
 }  // namespace detail
+
+template <typename Body>
+void parallel_chunks(std::size_t n, std::size_t grain, const Body& body) {
+  const std::size_t g = std::max<std::size_t>(grain, 1);
+  detail::run_items((n + g - 1) / g, [&](std::size_t c) { body(c * g, std::min(n, (c + 1) * g)); });
+}
+
+template <typename Body>
+void parallel_for_each_index(std::size_t n, const Body& body) {
+  detail::run_items(n, body);
+}
+
+template <typename... Functions>
+void parallel_invoke(const Functions&... functions) {
+  static_assert(sizeof...(Functions) >= 2);
+  const std::vector<std::function<void()>> calls{std::function<void()>(functions)...};
+  detail::run_items(calls.size(), [&](std::size_t i) { calls[i](); });
+}
+
+#else
 
 // Calls body(begin, end) on disjoint chunks of [0, n) of about `grain` items, in parallel.
 template <typename Body>
 void parallel_chunks(std::size_t n, std::size_t grain, const Body& body) {
-  detail::ForkJoin sync;
-  const detail::JoinGuard join(sync);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, grain == 0 ? 1 : grain),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      const detail::ForkJoin::Task task(sync);
-                      body(r.begin(), r.end());
-                    });
+                    [&](const tbb::blocked_range<std::size_t>& r) { body(r.begin(), r.end()); });
 }
 
 // Calls body(i) for every i in [0, n), each a task of its own (for few, large items).
 template <typename Body>
 void parallel_for_each_index(std::size_t n, const Body& body) {
-  detail::ForkJoin sync;
-  const detail::JoinGuard join(sync);
-  tbb::parallel_for(std::size_t{0}, n, [&](std::size_t i) {
-    const detail::ForkJoin::Task task(sync);
-    body(i);
-  });
+  tbb::parallel_for(std::size_t{0}, n, [&](std::size_t i) { body(i); });
 }
 
 // Runs the functions in parallel and returns when all have (an exception of one is rethrown
@@ -118,13 +139,10 @@ void parallel_for_each_index(std::size_t n, const Body& body) {
 template <typename... Functions>
 void parallel_invoke(const Functions&... functions) {
   static_assert(sizeof...(Functions) >= 2);
-  detail::ForkJoin sync;
-  const detail::JoinGuard join(sync);
-  tbb::parallel_invoke([&] {
-    const detail::ForkJoin::Task task(sync);
-    functions();
-  }...);
+  tbb::parallel_invoke(functions...);
 }
+
+#endif
 
 // Reduces [0, n) over fixed chunks: chunk(begin, end, partial) adds the items to one of
 // `identity`'s copies, combine(total, partial) merges them in chunk order. The chunks do not
