@@ -97,6 +97,9 @@ TEST(MeshScene, UpdatesFollowARealAnimation) {
         const Hit want = brute->intersect(ray);
         ASSERT_EQ(hit.prim, want.prim) << accel << " frame " << f;
         ASSERT_EQ(hit.t, want.t) << accel << " frame " << f;
+        // The normals follow the update (the scene keeps its own per-triangle copy).
+        const Vec3 ng = want.found() ? soup[want.prim].geometric_normal() : Vec3{0};
+        ASSERT_EQ(hit.ng, ng) << accel << " frame " << f;
       }
     }
   }

@@ -146,7 +146,6 @@ class Scene {
       py::gil_scoped_release release;
       std::shared_lock lock(mutex_);
       tbb::task_arena(workers).execute([&] {
-        const MeshBuffers& mesh = scene_->mesh();
         for_ray_blocks(r, n, 0, kInfinity, [&](std::size_t first, std::span<const Ray> block) {
           std::array<Hit, kRayBlock> hits;
           scene_->accel().intersect(block, std::span<Hit>(hits.data(), block.size()));
@@ -159,7 +158,7 @@ class Scene {
             gp[i] = h.found() ? 0 : kInvalidId;
             uvp[2 * i] = h.found() ? h.u : 0;
             uvp[2 * i + 1] = h.found() ? h.v : 0;
-            const Vec3 ng = h.found() ? mesh.triangle(h.prim).geometric_normal() : Vec3{0, 0, 0};
+            const Vec3 ng = h.found() ? scene_->geometric_normal(h.prim) : Vec3{0, 0, 0};
             const Vec3 unit = normalize(ng);  // as `splitray trace --hits-out`
             np[3 * i] = unit.x;
             np[3 * i + 1] = unit.y;

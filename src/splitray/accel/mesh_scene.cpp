@@ -24,10 +24,18 @@ MeshScene::MeshScene(const MeshBuffers& mesh, const std::string& accel, const Bu
                      const std::string& where)
     : mesh_(mesh), accel_name_(accel), config_(config) {
   accel_ = make_accel(accel, mesh, config, where);
+  compute_normals();
+}
+
+void MeshScene::compute_normals() {
+  normals_.resize(mesh_.triangle_count);
+  parallel_chunks(normals_.size(), 4096, [&](std::size_t b, std::size_t e) {
+    for (std::size_t j = b; j < e; ++j) normals_[j] = mesh_.triangle(j).geometric_normal();
+  });
 }
 
 void MeshScene::fill_normal(SurfaceHit& hit) const {
-  hit.ng = hit.found() ? mesh_.triangle(hit.prim).geometric_normal() : Vec3{0, 0, 0};
+  hit.ng = hit.found() ? normals_[hit.prim] : Vec3{0, 0, 0};
 }
 
 SurfaceHit MeshScene::intersect(const Ray& ray) const {
@@ -78,6 +86,7 @@ MeshUpdate MeshScene::update(const MeshBuffers& moved, const std::string& where)
     accel_ = make_accel(accel_name_, tris, config_);
   }
   mesh_ = moved;
+  compute_normals();
   return how;
 }
 
