@@ -2,8 +2,10 @@
 #include <map>
 
 #include "splitray/accel/accel.hpp"
+#include "splitray/accel/bih/bih.hpp"
 #include "splitray/accel/bih/bih_accel.hpp"
 #include "splitray/accel/brute/brute.hpp"
+#include "splitray/accel/bvh/bvh.hpp"
 #include "splitray/accel/bvh/bvh_accel.hpp"
 #include "splitray/accel/embree/embree_accel.hpp"
 #include "splitray/accel/kd/kd_accel.hpp"
@@ -39,8 +41,8 @@ const std::map<std::string, Entry>& registry() {
       {"brute", {{"none"}, make_brute}},
       {"kd", {kd_builder_names(), make_or_neural<make_kd, make_neural_kd>, true, kKdSah}},
       {"embree", {{"medium", "low", "high", "refit"}, make_embree}},
-      {"bih", {{"global", "median", "middle", "sah"}, make_bih}},
-      {"bvh", {{"binned", "sbvh"}, make_or_neural<make_bvh, make_neural_bvh>, true}},
+      {"bih", {bih_builder_names(), make_bih}},
+      {"bvh", {Bvh::builder_names(), make_or_neural<make_bvh, make_neural_bvh>, true}},
   };
   return entries;
 }

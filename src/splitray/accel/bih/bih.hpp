@@ -51,6 +51,7 @@ enum class BihHeuristic {
 };
 
 BihHeuristic parse_bih_heuristic(const std::string& name);  // throws Error on an unknown name
+std::vector<std::string> bih_builder_names();               // the default first
 
 struct BihBuildOptions {
   BihHeuristic heuristic = BihHeuristic::global;

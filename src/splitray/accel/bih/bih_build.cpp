@@ -341,13 +341,33 @@ class BihBuilder {
 
 }  // namespace
 
+namespace {
+
+struct NamedHeuristic {
+  const char* name;
+  BihHeuristic heuristic;
+};
+constexpr NamedHeuristic kHeuristics[] = {{"global", BihHeuristic::global},
+                                          {"median", BihHeuristic::median},
+                                          {"middle", BihHeuristic::middle},
+                                          {"sah", BihHeuristic::sah}};
+
+}  // namespace
+
+std::vector<std::string> bih_builder_names() {
+  std::vector<std::string> names;
+  for (const NamedHeuristic& h : kHeuristics) names.emplace_back(h.name);
+  return names;
+}
+
 BihHeuristic parse_bih_heuristic(const std::string& name) {
-  if (name == "global" || name.empty()) return BihHeuristic::global;
-  if (name == "median") return BihHeuristic::median;
-  if (name == "middle") return BihHeuristic::middle;
-  if (name == "sah") return BihHeuristic::sah;
-  throw Error("--builder",
-              "'" + name + "' is not a BIH builder (known: global, median, middle, sah)");
+  if (name.empty()) return kHeuristics[0].heuristic;
+  std::string known;
+  for (const NamedHeuristic& h : kHeuristics) {
+    if (name == h.name) return h.heuristic;
+    known += std::string(known.empty() ? "" : ", ") + h.name;
+  }
+  throw Error("--builder", "'" + name + "' is not a BIH builder (known: " + known + ")");
 }
 
 BihBuildOptions BihBuildOptions::from(const BuildConfig& config, BihHeuristic heuristic) {

@@ -32,9 +32,11 @@ Bvh Bvh::build(std::span<const Triangle> triangles, const std::string& builder,
     result = build_bvh_sbvh(triangles, std::move(refs), options);
   else if (builder == "embree")
     result = build_bvh_embree(triangles, std::move(refs), options, true);
-  else
-    throw Error("--builder",
-                "'" + builder + "' is not a BVH builder (known: binned, sbvh, embree)");
+  else {
+    std::string known;
+    for (const std::string& name : builder_names()) known += (known.empty() ? "" : ", ") + name;
+    throw Error("--builder", "'" + builder + "' is not a BVH builder (known: " + known + ")");
+  }
   Bvh bvh = from_pieces(triangles, *result.root);
   bvh.cost_evals_ = result.cost_evals;
   return bvh;

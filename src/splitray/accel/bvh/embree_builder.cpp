@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <new>
+#include <vector>
 
 #include "splitray/accel/bvh/bvh_build.hpp"
 #include "splitray/accel/triangle_clip.hpp"
@@ -101,11 +102,25 @@ RTCDevice shared_device() {
   return device;
 }
 
-void lay_out(const TmpNode* node, const Aabb& box, BvhPiece& piece, std::size_t slot) {
+// The ids of every leaf below `node`.
+void gather_ids(const TmpNode* node, std::vector<std::uint32_t>& ids) {
   if (node->leaf) {
     const auto* leaf = reinterpret_cast<const TmpLeaf*>(node);
+    ids.insert(ids.end(), leaf->ids, leaf->ids + leaf->count);
+    return;
+  }
+  const auto* inner = reinterpret_cast<const TmpInner*>(node);
+  gather_ids(inner->kids[0], ids);
+  gather_ids(inner->kids[1], ids);
+}
+
+// Lays the tree out from `slot` on; a subtree at depth max_depth becomes one leaf, as our own
+// builders make it (Embree itself fails when its maxDepth is reached, so it builds to 64).
+void lay_out(const TmpNode* node, const Aabb& box, BvhPiece& piece, std::size_t slot, int depth,
+             int max_depth) {
+  if (node->leaf || depth >= max_depth) {
     const auto first = static_cast<std::uint32_t>(piece.prims.size());
-    piece.prims.insert(piece.prims.end(), leaf->ids, leaf->ids + leaf->count);
+    gather_ids(node, piece.prims);
     std::sort(piece.prims.begin() + first, piece.prims.end());
     piece.prims.erase(std::unique(piece.prims.begin() + first, piece.prims.end()),
                       piece.prims.end());
@@ -118,8 +133,8 @@ void lay_out(const TmpNode* node, const Aabb& box, BvhPiece& piece, std::size_t 
   piece.nodes.resize(pair + 2);
   const Vec3 e = box.extent();
   piece.nodes[slot] = BvhNode::make_interior(box, max_axis(e), pair);
-  lay_out(inner->kids[0], inner->boxes[0], piece, pair);
-  lay_out(inner->kids[1], inner->boxes[1], piece, pair + 1);
+  lay_out(inner->kids[0], inner->boxes[0], piece, pair, depth + 1, max_depth);
+  lay_out(inner->kids[1], inner->boxes[1], piece, pair + 1, depth + 1, max_depth);
 }
 
 }  // namespace
@@ -146,7 +161,7 @@ BvhBuildResult build_bvh_embree(std::span<const Triangle> triangles, std::vector
   args.buildQuality = spatial ? RTC_BUILD_QUALITY_HIGH : RTC_BUILD_QUALITY_MEDIUM;
   args.maxBranchingFactor = 2;
   args.sahBlockSize = static_cast<unsigned int>(std::max(options.leaf_block, 1));
-  args.maxDepth = static_cast<unsigned int>(std::clamp(options.max_depth, 1, 64));
+  args.maxDepth = 64;
   args.minLeafSize = static_cast<unsigned int>(std::max(options.min_leaf, 1));
   args.maxLeafSize = static_cast<unsigned int>(std::clamp(options.max_leaf, 1, 32));
   args.traversalCost = options.traversal_cost;
@@ -166,7 +181,8 @@ BvhBuildResult build_bvh_embree(std::span<const Triangle> triangles, std::vector
     rtcReleaseBVH(bvh);
     throw Error("embree", "rtcBuildBVH failed");
   }
-  lay_out(static_cast<const TmpNode*>(root), root_box, *result.root, 0);
+  lay_out(static_cast<const TmpNode*>(root), root_box, *result.root, 0, 0,
+          std::clamp(options.max_depth, 1, 64));
   rtcReleaseBVH(bvh);
   return result;
 }
