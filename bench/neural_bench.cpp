@@ -172,8 +172,8 @@ Json compare_triangles(const std::string& accel, const std::string& expand,
   base.builder = expand;
   BuildConfig neural;
   neural.builder = "neural";
-  neural.model = model;
-  neural.expand = expand;
+  neural.neural.model = model;
+  neural.neural.expand = expand;
   std::unique_ptr<Accel> a, b;
   std::vector<double> build_a, build_b;
   for (int r = 0; r < runs; ++r) {  // alternated, one tree alive per build
@@ -193,7 +193,7 @@ Json compare_triangles(const std::string& accel, const std::string& expand,
   row["cost_ratio"] = ca > 0 ? cb / ca : 0.0;
   {  // paper 003 Fig. 3's baseline: the top greedy on the same samples, expanded alike
     BuildConfig greedy = neural;
-    greedy.greedy_top = true;
+    greedy.neural.greedy_top = true;
     const AccelStats g = make_accel(accel, triangles, greedy)->stats();
     row["greedy_top"] = tree_json(g);
     row["greedy_top_cost_ratio"] = ca > 0 ? g.sah_cost.value_or(0) / ca : 0.0;
@@ -228,8 +228,8 @@ Json compare_points(const std::string& expand, const std::string& model,
   base.builder = expand;
   PointTreeConfig neural;
   neural.builder = "neural";
-  neural.model = model;
-  neural.expand = expand;
+  neural.neural.model = model;
+  neural.neural.expand = expand;
   std::unique_ptr<PointTree> a, b;
   std::vector<double> build_a, build_b;
   for (int r = 0; r < runs; ++r) {
@@ -255,7 +255,7 @@ Json compare_points(const std::string& expand, const std::string& model,
   row["cost_ratio"] = sb.vvh_cost / sa.vvh_cost;
   {  // paper 003 Fig. 3's baseline: the top greedy on the same samples, expanded alike
     PointTreeConfig greedy = neural;
-    greedy.greedy_top = true;
+    greedy.neural.greedy_top = true;
     const PointTreeStats g = PointTree(points, greedy).stats();
     row["greedy_top"] = Json{{"builder", "greedy-top+" + expand}, {"vvh_cost", g.vvh_cost}};
     row["greedy_top_cost_ratio"] = g.vvh_cost / sa.vvh_cost;
@@ -360,7 +360,7 @@ Json inference_scaling(const ModelInfo& sah, const ModelInfo& vvh, std::span<con
       std::vector<double> draw_ms, infer_ms, infer_cpu;
       NeuralTop top;
       PointTreeConfig config;
-      config.top_min_points = 0;  // the model's full depth at every size: the same work
+      config.neural.top_min = 0;  // the model's full depth at every size: the same work
       const float radius = 1e-4f * length(box.extent());
       for (int r = 0; r < reps; ++r) {
         double sampling = 0;

@@ -144,7 +144,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   BuildConfig config;
   config.threads = 1;
   config.max_leaf_prims = 1 + in.byte() % 4;
-  config.bins = 2 + in.byte() % 31;
+  config.bins = 4 + in.byte() % 29;   // 4 to 32: what every binned builder takes
   config.max_depth = in.byte() % 24;  // 0 = automatic
   std::vector<Triangle> tris;
   for (std::size_t i = 0; i < count && !in.empty(); ++i) {

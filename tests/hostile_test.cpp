@@ -164,16 +164,16 @@ TEST(HostileGeometry, BvhsEqualBrute) {
 // The shipped model's top, down to its full depth (no cell is left to the expansion builder
 // for being small), expanded by every builder: perfect splits at the top's planes too.
 TEST(HostileGeometry, NeuralExpansionsEqualBrute) {
-  const auto deepest = [](BuildConfig& c) { c.top_min_prims = 0; };
+  const auto deepest = [](BuildConfig& c) { c.neural.top_min = 0; };
   for (const std::string expand : {"sah", "golden", "binned"})
     expect_equal_to_brute(setting("kd", "neural", "+" + expand, [&](BuildConfig& c) {
       deepest(c);
-      c.expand = expand;
+      c.neural.expand = expand;
     }));
   for (const std::string expand : {"binned", "sbvh"})
     expect_equal_to_brute(setting("bvh", "neural", "+" + expand, [&](BuildConfig& c) {
       deepest(c);
-      c.expand = expand;
+      c.neural.expand = expand;
     }));
 }
 
@@ -276,8 +276,8 @@ const std::vector<Setting>& kd_settings() {
       out.push_back(setting("kd", builder, "", kDefault));
     for (const std::string expand : {"sah", "golden", "binned"})
       out.push_back(setting("kd", "neural", "+" + expand, [&](BuildConfig& c) {
-        c.top_min_prims = 0;
-        c.expand = expand;
+        c.neural.top_min = 0;
+        c.neural.expand = expand;
       }));
     return out;
   }();

@@ -254,7 +254,7 @@ TEST(NeuralTop, GreedyInferenceGivesAValidTopIndependentOfThreads) {
   const NeuralModel model = read_neural_model(model_file(NeuralCost::sah, 6));
   const Aabb box = bounds_of(tris);
   BuildConfig config;
-  config.top_min_prims = 0;  // every node down to the model's depth
+  config.neural.top_min = 0;  // every node down to the model's depth
   TriangleTop one, two;
   {
     ThreadLimit limit(1);
@@ -304,9 +304,9 @@ void expect_neural_matches_brute(const Reference& ref, const std::string& accel,
                                  const std::string& what) {
   BuildConfig config;
   config.builder = "neural";
-  config.model = model;
-  config.expand = expand;
-  config.top_min_prims = 0;  // the deepest top the model gives: the hardest case for the answers
+  config.neural.model = model;
+  config.neural.expand = expand;
+  config.neural.top_min = 0;  // the deepest top the model gives: the hardest case for the answers
   const auto tree = make_accel(accel, ref.tris, config);
   EXPECT_EQ(tree->stats().accel, accel);
   EXPECT_TRUE(tree->stats().inference_ms.has_value());
@@ -338,8 +338,8 @@ TEST(NeuralAccel, SmallCellsAreLeftToTheExpansionBuilder) {
                          int top_min) {
     BuildConfig config;
     config.builder = builder;
-    config.model = model;
-    config.top_min_prims = top_min;
+    config.neural.model = model;
+    config.neural.top_min = top_min;
     return make_accel("kd", tris, config)->stats();
   };
   // 36 triangles, fewer than the default threshold: no top, exactly the expansion's tree.
@@ -392,9 +392,9 @@ TEST(NeuralTop, GreedyTopTakesTheSamplesCheapestSplitAndMatchesBrute) {
 
   BuildConfig config;
   config.builder = "neural";
-  config.model = model_file(NeuralCost::sah, 6);
-  config.greedy_top = true;
-  config.top_min_prims = 0;
+  config.neural.model = model_file(NeuralCost::sah, 6);
+  config.neural.greedy_top = true;
+  config.neural.top_min = 0;
   const auto tree = make_accel("kd", tris, config);
   EXPECT_EQ(tree->stats().builder, "greedy-top+sah");
   EXPECT_GT(*tree->stats().top_depth, 0);
@@ -417,7 +417,7 @@ TEST(NeuralAccel, KdTreeDoesNotDependOnThreadCount) {
   const std::vector<Triangle> tris = load_triangles(vendored_file("horse/horse.obj.gz"));
   BuildConfig config;
   config.builder = "neural";
-  config.model = model_file(NeuralCost::sah, 6);
+  config.neural.model = model_file(NeuralCost::sah, 6);
   config.threads = 1;
   const auto one = make_accel("kd", tris, config);
   config.threads = 2;
@@ -436,23 +436,23 @@ TEST(NeuralAccel, BadModelsAndExpandersAreClearErrors) {
   const std::vector<Triangle> tris = load_triangles(vendored_file("horse/horse.obj.gz"));
   BuildConfig config;
   config.builder = "neural";
-  config.model = model_file(NeuralCost::vvh, 5);
+  config.neural.model = model_file(NeuralCost::vvh, 5);
   EXPECT_THROW(make_accel("kd", tris, config), Error);  // a VVH model for ray tracing
-  config.model = model_file(NeuralCost::sah, 6);
-  config.expand = "nope";
+  config.neural.model = model_file(NeuralCost::sah, 6);
+  config.neural.expand = "nope";
   EXPECT_THROW(make_accel("kd", tris, config), Error);
   EXPECT_THROW(make_accel("bvh", tris, config), Error);
-  config.expand = "neural";
+  config.neural.expand = "neural";
   EXPECT_THROW(make_accel("kd", tris, config), Error);
-  config.expand = "";
-  config.model = "/nonexistent/model.bin";
+  config.neural.expand = "";
+  config.neural.model = "/nonexistent/model.bin";
   try {
     make_accel("bvh", tris, config);
     ADD_FAILURE() << "no error for a missing model";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("/nonexistent/model.bin"), std::string::npos);
   }
-  config.model = model_file(NeuralCost::sah, 6);
+  config.neural.model = model_file(NeuralCost::sah, 6);
   EXPECT_THROW(make_accel("bih", tris, config), Error);  // not a builder of bih
 }
 
@@ -467,7 +467,7 @@ TEST(NeuralAccel, DefaultModelsAreFoundThroughTheModelDir) {
   const std::vector<Triangle> tris = load_triangles(vendored_file("horse/horse.obj.gz"));
   BuildConfig config;
   config.builder = "neural";
-  config.top_min_prims = 0;
+  config.neural.top_min = 0;
   const auto tree = make_accel("kd", tris, config);  // no --model: the folder's sah.bin
   EXPECT_EQ(*tree->stats().top_depth, 4);
   if (old)
@@ -497,9 +497,9 @@ TEST(NeuralPointTree, EqualsBruteForceForKNearestAndRadius) {
 
   PointTreeConfig config;
   config.builder = "neural";
-  config.model = model_file(NeuralCost::vvh, 5);
+  config.neural.model = model_file(NeuralCost::vvh, 5);
   for (const std::string expand : {"vvh", "median"}) {
-    config.expand = expand;
+    config.neural.expand = expand;
     const PointTree tree(points, config);
     const PointTreeStats stats = tree.stats();
     EXPECT_TRUE(stats.inference_ms.has_value());
@@ -523,7 +523,7 @@ TEST(NeuralPointTree, EqualsBruteForceForKNearestAndRadius) {
     }
   }
   // Thread count does not change the tree.
-  config.expand = "";
+  config.neural.expand = "";
   std::vector<PointNode> one, two;
   {
     ThreadLimit limit(1);
@@ -538,7 +538,7 @@ TEST(NeuralPointTree, EqualsBruteForceForKNearestAndRadius) {
   ASSERT_EQ(one.size(), two.size());
   EXPECT_EQ(std::memcmp(one.data(), two.data(), one.size() * sizeof(PointNode)), 0);
   // A SAH model is refused for points.
-  config.model = model_file(NeuralCost::sah, 6);
+  config.neural.model = model_file(NeuralCost::sah, 6);
   EXPECT_THROW(PointTree(points, config), Error);
 }
 
@@ -603,7 +603,7 @@ TEST(NeuralPointTree, ExpandedCellsShedTheTopsEmptySpace) {
 TEST(NeuralPointTree, TinyAndDegenerateInputsEqualBruteForce) {
   PointTreeConfig config;
   config.builder = "neural";
-  config.model = model_file(NeuralCost::vvh, 5);
+  config.neural.model = model_file(NeuralCost::vvh, 5);
   const std::vector<std::vector<Vec3>> sets = {
       {{1, 2, 3}},
       std::vector<Vec3>(50, Vec3{1, 1, 1}),
@@ -639,7 +639,7 @@ TEST(ShippedModels, TopsFromTheShippedWeightsAnswerLikeBrute) {
   const std::vector<Vec3> queries = sample_surface(mesh, 1000, 3, kQueryStream);
   PointTreeConfig config;
   config.builder = "neural";
-  config.model = dir + "vvh.bin";
+  config.neural.model = dir + "vvh.bin";
   const PointTree tree(points, config);
   EXPECT_GT(tree.stats().top_depth, 0);
   for (const int k : {1, 8})

@@ -746,7 +746,7 @@ void add_animate_command(CLI::App& app) {
                   "Frames: mesh files, a glob, a printf pattern (horse-%02d.obj.gz), a folder, "
                   "one MD2 file or one BART .aff scene")
       ->required();
-  add_accel_options(*sub, command->accel);
+  add_accel_options(*sub, command->accel, false);  // --compare builds other structures too
   sub->add_option("-p,--predictor", command->predictor, "none, kalman or wiener")
       ->check(CLI::IsMember({"none", "kalman", "wiener"}));
   sub->add_option("--frames", command->max_frames, "Use only the first N frames (0 = all)");

@@ -209,19 +209,19 @@ void add_knn_command(CLI::App& app) {
                   "vvh, sah, median (ours), neural (paper 003: inferred top + --expand), brute "
                   "(oracle), nanoflann or flann (yardsticks)")
       ->check(CLI::IsMember(names));
-  sub->add_option("--model", command->index.model,
+  sub->add_option("--model", command->index.neural.model,
                   "--builder neural: model file (default: models/vvh.bin of the source tree, "
                   "$SPLITRAY_MODEL_DIR or share/splitray/models)");
-  sub->add_option("--expand", command->index.expand,
+  sub->add_option("--expand", command->index.neural.expand,
                   "--builder neural: builder of the inferred top's leaf cells (vvh, sah, median; "
                   "default vvh)")
       ->check(CLI::IsMember({"vvh", "sah", "median"}));
-  sub->add_option("--top-min", command->index.top_min_points,
+  sub->add_option("--top-min", command->index.neural.top_min,
                   "--builder neural: inferred-top cells of fewer points (estimated from the "
                   "samples) are left to the expansion builder (default 4096; 0: split down to the "
                   "model's depth)")
       ->check(CLI::Range(0, 1 << 30));
-  sub->add_flag("--greedy-top", command->index.greedy_top,
+  sub->add_flag("--greedy-top", command->index.neural.greedy_top,
                 "--builder neural: the top from an exact greedy VVH sweep over the same samples "
                 "instead of the network (paper 003 Fig. 3's baseline)");
   sub->add_option("--leaf-size", command->index.leaf_size, "Points per leaf (all trees)")

@@ -12,6 +12,7 @@
 
 #include "file_options.hpp"
 #include "sah_options.hpp"
+#include "splitray/accel/build_options.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/core/output_file.hpp"
 #include "splitray/core/parallel.hpp"
@@ -91,7 +92,19 @@ std::string fixed(double value, int decimals) { return fmt::format("{:.{}f}", va
 
 }  // namespace
 
-void add_accel_options(CLI::App& command, AccelOptions& options) {
+void add_accel_options(CLI::App& command, AccelOptions& options, bool report_unused) {
+  if (report_unused)
+    command.parse_complete_callback([&options] {
+      if (!has_neural_builder(options.accel) && options.build.builder == "neural") return;
+      const std::vector<std::string> names = builder_names(options.accel);
+      const std::string& builder = options.build.builder;
+      if (!builder.empty() && builder != "neural" &&
+          std::find(names.begin(), names.end(), builder) == names.end())
+        return;  // make_accel names the unknown builder
+      for (const std::string& option : unused_options(options.accel, options.build))
+        fmt::print(stderr, "splitray: warning: {} is ignored by --accel {} --builder {}\n", option,
+                   options.accel, builder.empty() ? names.front() : builder);
+    });
   command.add_option("-a,--accel", options.accel, "Acceleration structure")
       ->check(CLI::IsMember(accel_names()));
   command.add_option("-b,--builder", options.build.builder,
@@ -112,7 +125,7 @@ void add_accel_options(CLI::App& command, AccelOptions& options) {
   command
       .add_option("--tree-depth", options.build.max_depth,
                   "Maximum tree depth (0 = automatic: 8 + 1.3 log2 N)")
-      ->check(CLI::Range(0, 128))
+      ->check(CLI::Range(0, 64))
       ->group(group);
   command
       .add_option("--leaf-size", options.build.max_leaf_prims,
@@ -126,24 +139,24 @@ void add_accel_options(CLI::App& command, AccelOptions& options) {
       ->check(CLI::Range(2, 1 << 16))
       ->group(group);
   cli::input_files(command.add_option(
-                       "--model", options.build.model,
+                       "--model", options.build.neural.model,
                        "--builder neural: model file (default: models/sah.bin of the source tree, "
                        "$SPLITRAY_MODEL_DIR or share/splitray/models)"))
       ->group(group);
   command
-      .add_option("--expand", options.build.expand,
+      .add_option("--expand", options.build.neural.expand,
                   "--builder neural: builder of the inferred top's leaf cells (kd: sah, golden, "
                   "binned; bvh: binned, sbvh, embree; default: the structure's default builder)")
       ->group(group);
   command
-      .add_option("--top-min", options.build.top_min_prims,
+      .add_option("--top-min", options.build.neural.top_min,
                   "--builder neural: inferred-top cells of fewer triangles (estimated from the "
                   "samples) are left to the expansion builder (default 4096; 0: split down to "
                   "the model's depth)")
       ->check(CLI::Range(0, 1 << 30))
       ->group(group);
   command
-      .add_flag("--greedy-top", options.build.greedy_top,
+      .add_flag("--greedy-top", options.build.neural.greedy_top,
                 "--builder neural: the top from an exact greedy SAH sweep over the same samples "
                 "instead of the network (paper 003 Fig. 3's baseline)")
       ->group(group);

@@ -3,7 +3,6 @@
 // --camera string, loading the geometry, and printing results as tables or JSON.
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
-
 #include <optional>
 #include <string>
 #include <utility>
@@ -15,12 +14,14 @@
 
 namespace splitray::app {
 
-// --accel, --builder, --threads and the BuildConfig tuning options of one subcommand.
+// --accel, --builder, --threads and the BuildConfig tuning options of one subcommand. With
+// `report_unused`, a warning on stderr names every option given that the chosen structure and
+// builder ignore (commands that build other structures as well pass false).
 struct AccelOptions {
   std::string accel = "kd";
   BuildConfig build;
 };
-void add_accel_options(CLI::App& command, AccelOptions& options);
+void add_accel_options(CLI::App& command, AccelOptions& options, bool report_unused = true);
 
 // --camera EX,EY,EZ,TX,TY,TZ[,FOV]: eye, target and an optional vertical field of view.
 struct CameraSpec {

@@ -8,15 +8,12 @@
 #include <string>
 #include <vector>
 
+#include "splitray/accel/neural/neural_config.hpp"
 #include "splitray/core/coordinates.hpp"
 #include "splitray/core/ray.hpp"
 #include "splitray/core/triangle.hpp"
 
 namespace splitray {
-
-// --builder neural: a cell of fewer primitives than this is not split by the network but by
-// the expansion builder, whose exact decisions beat those learnt from a few samples there.
-inline constexpr int kNeuralTopMinPrims = 4096;
 
 // The SAH constants K_T (a node step) and K_I (a triangle test).
 struct SahConstants {
@@ -44,16 +41,7 @@ struct BuildConfig {
   int max_leaf_prims = 1;    // a node with this many or fewer primitives is never split
   int bins = 64;             // binned builders
   int threads = 0;           // 0 = all cores; the built structure never depends on it
-  // --builder neural (paper 003): the model file (empty = the shipped default for the cost)
-  // and the builder that expands the inferred top's leaves (empty = the structure's default).
-  std::string model;
-  std::string expand;
-  // Inferred-top nodes with fewer primitives than this (estimated from the samples) are left
-  // to the expansion builder; 0 = every node down to the model's depth.
-  int top_min_prims = kNeuralTopMinPrims;
-  // The top from an exact greedy sweep over the same samples instead of the network (the
-  // baseline of paper 003 Fig. 3: what the samples alone give).
-  bool greedy_top = false;
+  NeuralConfig neural;       // --builder neural (paper 003)
 
   // The one resolution of the SAH constants: those given, else the structure's `defaults`.
   SahConstants sah(SahConstants defaults) const {
@@ -136,7 +124,9 @@ class Accel {
 };
 
 // Creates a structure by name ("kd", "brute", "embree", ...). Throws Error on an unknown
-// name or builder. The structure keeps its own copy of what it needs of `triangles`.
+// name or builder, or an option value outside what the structure takes (build_options.hpp,
+// which also lists the options a structure ignores). The structure keeps its own copy of what it
+// needs of `triangles`.
 std::unique_ptr<Accel> make_accel(const std::string& name, std::span<const Triangle> triangles,
                                   const BuildConfig& config = {});
 

@@ -5,6 +5,7 @@
 #include "splitray/accel/bih/bih.hpp"
 #include "splitray/accel/bih/bih_accel.hpp"
 #include "splitray/accel/brute/brute.hpp"
+#include "splitray/accel/build_options.hpp"
 #include "splitray/accel/bvh/bvh.hpp"
 #include "splitray/accel/bvh/bvh_accel.hpp"
 #include "splitray/accel/embree/embree_accel.hpp"
@@ -90,6 +91,7 @@ std::unique_ptr<Accel> make_accel(const std::string& name, std::span<const Trian
     throw Error("--builder", "'" + resolved.builder + "' is not a builder of --accel " + name +
                                  " (known: " + join(builders) +
                                  (has_neural_builder(name) ? ", neural" : "") + ")");
+  check_build_options(name, resolved);
   if (triangles.empty()) throw Error("build", "no triangles to build on");
   check_triangles(triangles, "build");  // NaN, inf or beyond +-2^40: no structure is exact there
   ThreadLimit limit(resolved.threads);

@@ -16,10 +16,7 @@ class TreeIndex final : public NeighborIndex {
       : tree_(points, {.builder = config.builder,
                        .leaf_size = config.leaf_size,
                        .radius = config.radius,
-                       .model = config.model,
-                       .expand = config.expand,
-                       .top_min_points = config.top_min_points,
-                       .greedy_top = config.greedy_top}) {
+                       .neural = config.neural}) {
     name_ = config.builder;
     build_ms_ = tree_.build_ms();
     points_ = points.size();

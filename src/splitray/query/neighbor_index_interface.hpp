@@ -18,11 +18,7 @@ struct NeighborIndexConfig {
   // Batched peer queries in the given order (false, as their users call them) or in our
   // Morton order (true: shows how much of a difference is query order alone).
   bool coherent_peers = false;
-  // builder "neural" (paper 003): model file (empty = the shipped one) and leaf expander.
-  std::string model{};
-  std::string expand{};
-  int top_min_points = kNeuralTopMinPrims;  // builder "neural": see PointTreeConfig
-  bool greedy_top = false;                  // builder "neural": see PointTreeConfig
+  NeuralConfig neural;  // builder "neural": see PointTreeConfig
 };
 
 class NeighborIndex {

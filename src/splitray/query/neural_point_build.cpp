@@ -205,8 +205,8 @@ NeuralTop infer_point_top(const NeuralModel& model, std::span<const Vec3> points
   options.intersection_cost = config.point_cost;
   options.radius = radius;
   options.population = static_cast<double>(points.size());
-  options.min_split_population = config.top_min_points;
-  options.greedy = config.greedy_top;
+  options.min_split_population = config.neural.top_min;
+  options.greedy = config.neural.greedy_top;
   return infer_neural_top(model, samples, bounds, options);
 }
 
@@ -214,7 +214,7 @@ PointBuildOutput expand_point_top(std::span<const Vec3> points, const Aabb& boun
                                   const NeuralTop& top, const PointTreeConfig& config,
                                   float radius) {
   Expander ex{points, top, config, radius, {}, {}, {}, {}, {}};
-  ex.sub.builder = config.expand.empty() ? "vvh" : config.expand;
+  ex.sub.builder = config.neural.expand.empty() ? "vvh" : config.neural.expand;
   if (ex.sub.builder == "neural") throw Error("--expand", "neural cannot expand its own top");
   ex.ids.resize(top.nodes.size());
   ex.built.resize(top.nodes.size());
@@ -269,7 +269,7 @@ PointBuildOutput expand_point_top(std::span<const Vec3> points, const Aabb& boun
 
 NeuralPointBuild build_neural_point_tree(std::span<const Vec3> points, const Aabb& bounds,
                                          const PointTreeConfig& config, float radius) {
-  const NeuralModel model = load_neural_model(config.model, NeuralCost::vvh);
+  const NeuralModel model = load_neural_model(config.neural.model, NeuralCost::vvh);
   NeuralPointBuild out;
   out.top = infer_point_top(model, points, bounds, config, radius, &out.sampling_ms);
   out.tree = expand_point_top(points, bounds, out.top, config, radius);

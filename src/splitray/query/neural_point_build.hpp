@@ -27,7 +27,7 @@ PointBuildOutput expand_point_top(std::span<const Vec3> points, const Aabb& boun
                                   const NeuralTop& top, const PointTreeConfig& config,
                                   float radius);
 
-// The whole build; the model is config.model or the shipped default vvh model.
+// The whole build; the model is config.neural.model or the shipped default vvh model.
 NeuralPointBuild build_neural_point_tree(std::span<const Vec3> points, const Aabb& bounds,
                                          const PointTreeConfig& config, float radius);
 

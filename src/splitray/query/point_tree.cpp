@@ -157,7 +157,7 @@ PointTree::PointTree(std::span<const Vec3> points, const PointTreeConfig& config
     if (!(radius > 0)) radius = 1;  // all points coincide: any positive expansion works
   }
   PointBuildOutput built;
-  if (config.builder == "neural") {  // paper 003: an inferred top, expanded by config.expand
+  if (config.builder == "neural") {  // paper 003: an inferred top, expanded by config.neural.expand
     NeuralPointBuild neural = build_neural_point_tree(points, bounds_, config, radius);
     neural.tree.inference_ms = neural.top.inference_ms;
     neural.tree.top_depth = neural.top.depth;

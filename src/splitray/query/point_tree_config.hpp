@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <string>
 
-#include "splitray/accel/accel.hpp"  // kNeuralTopMinPrims
+#include "splitray/accel/neural/neural_config.hpp"
 
 namespace splitray {
 
@@ -22,13 +22,9 @@ struct PointTreeConfig {
   float radius = 0;
   float traversal_cost = 1.2f;  // c_t of paper 003 §6.3
   float point_cost = 1.0f;      // c_i
-  // builder "neural" (paper 003): the model file (empty = the shipped models/vvh.bin) and the
-  // builder that expands the inferred top's leaf cells (empty = vvh).
-  std::string model{};
-  std::string expand{};
-  // Inferred-top nodes with fewer points are left to the expander (0: the model's depth).
-  int top_min_points = kNeuralTopMinPrims;
-  bool greedy_top = false;  // builder "neural": the samples' greedy top instead of the network
+  // builder "neural" (paper 003): the model (empty = the shipped models/vvh.bin), the builder
+  // of the inferred top's leaf cells (empty = vvh), the top's smallest node in points.
+  NeuralConfig neural;
 };
 
 // Interior: the points below have coordinate[axis] <= below_max < above_min <= the points

@@ -134,7 +134,7 @@ void stitch(const NeuralTop& top, int node, std::vector<KdTree>& subtrees, KdTre
 }
 
 std::string expand_name(const BuildConfig& config, const std::string& fallback) {
-  return config.expand.empty() ? fallback : config.expand;
+  return config.neural.expand.empty() ? fallback : config.neural.expand;
 }
 
 }  // namespace
@@ -165,8 +165,8 @@ TriangleTop infer_triangle_top(const NeuralModel& model, std::span<const Triangl
   options.traversal_cost = k.traversal;
   options.intersection_cost = k.intersection;
   options.population = static_cast<double>(triangles.size());
-  options.min_split_population = config.top_min_prims;
-  options.greedy = config.greedy_top;
+  options.min_split_population = config.neural.top_min;
+  options.greedy = config.neural.greedy_top;
   out.top = infer_neural_top(model, samples, bounds, options);
   return out;
 }
@@ -223,7 +223,7 @@ std::unique_ptr<Accel> make_neural_kd(std::span<const Triangle> triangles,
   const std::string expand = expand_name(config, kd_builder_names().front());
   if (expand == "neural") throw Error("--expand", "neural cannot expand its own top");
   const KdBuilder builder = kd_builder(expand);
-  const NeuralModel model = load_neural_model(config.model, NeuralCost::sah);
+  const NeuralModel model = load_neural_model(config.neural.model, NeuralCost::sah);
   const Timer timer;
   const Aabb bounds = bounds_of(triangles);
   const TriangleTop top = infer_triangle_top(model, triangles, bounds, config);
@@ -233,7 +233,7 @@ std::unique_ptr<Accel> make_neural_kd(std::span<const Triangle> triangles,
   named.builder = "neural";
   auto inner = std::make_unique<KdAccel>(std::move(tree), triangles, named, evals, timer);
   AccelStats stats = inner->stats();
-  stats.builder = (config.greedy_top ? "greedy-top+" : "neural+") + expand;
+  stats.builder = (config.neural.greedy_top ? "greedy-top+" : "neural+") + expand;
   stats.inference_ms = top.top.inference_ms;
   stats.top_depth = top.top.depth;
   return std::make_unique<NeuralAccel>(std::move(inner), stats);
@@ -244,7 +244,7 @@ std::unique_ptr<Accel> make_neural_bvh(std::span<const Triangle> triangles,
   check_input(triangles, "bvh");
   const std::string expand = expand_name(config, "binned");
   const LeafExpander expander = parse_leaf_expander(expand);
-  const NeuralModel model = load_neural_model(config.model, NeuralCost::sah);
+  const NeuralModel model = load_neural_model(config.neural.model, NeuralCost::sah);
   const Timer timer;
   const Aabb bounds = bounds_of(triangles);
   const TriangleTop top = infer_triangle_top(model, triangles, bounds, config);
@@ -261,7 +261,7 @@ std::unique_ptr<Accel> make_neural_bvh(std::span<const Triangle> triangles,
   AccelStats stats = inner->stats();
   stats.build_ms = timer.ms();
   stats.accel = "bvh";
-  stats.builder = (config.greedy_top ? "greedy-top+" : "neural+") + expand;
+  stats.builder = (config.neural.greedy_top ? "greedy-top+" : "neural+") + expand;
   stats.inference_ms = top.top.inference_ms;
   stats.top_depth = top.top.depth;
   return std::make_unique<NeuralAccel>(std::move(inner), stats);

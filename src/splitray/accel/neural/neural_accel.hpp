@@ -14,8 +14,8 @@
 
 namespace splitray {
 
-// The model of `config.model`, or the shipped default of `cost` when empty. Throws Error when
-// the file is absent or invalid, or when it was trained for the other cost.
+// The model of `config.neural.model`, or the shipped default of `cost` when empty. Throws Error
+// when the file is absent or invalid, or when it was trained for the other cost.
 NeuralModel load_neural_model(const std::string& path, NeuralCost cost);
 
 // Sampling and greedy inference over triangles with SAH constants from `config`.
