@@ -6,11 +6,13 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <map>
 #include <numbers>
 
+#include "splitray/core/coordinates.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/io/read_file.hpp"
 
@@ -154,6 +156,7 @@ struct AnimTriangle {
 }  // namespace
 
 struct AffScene::Data {
+  std::string path;  // of the top file, for errors found when the scene is evaluated
   struct Node {
     int parent = -1;
     Affine fixed;           // `xs`
@@ -677,6 +680,7 @@ AffScene& AffScene::operator=(AffScene&&) noexcept = default;
 
 AffScene AffScene::load(const std::string& path) {
   AffScene scene;
+  scene.data_->path = path;
   Parser(*scene.data_, scene.animation_).parse_file(path, 0, 0);
   if (scene.triangle_count() == 0) throw Error(path, "the scene has no triangles");
   return scene;
@@ -718,6 +722,11 @@ std::vector<Triangle> AffScene::triangles_at(double t) const {
     const Affine& m = world[static_cast<std::size_t>(a.node)];
     out.push_back({m.apply(tri.v0), m.apply(tri.v1), m.apply(tri.v2)});
   }
+  // Sizes, transforms and key frames may each be valid and still move a vertex beyond the
+  // limit within which splitray traces exactly (a sphere of radius 4e20, a scale at time t).
+  char when[48];
+  std::snprintf(when, sizeof when, " at time %g", t);
+  check_triangles(out, d.path + when);
   return out;
 }
 

@@ -16,6 +16,7 @@
 #include "splitray/core/coordinates.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/io/aff.hpp"
+#include "splitray/io/format_checks.hpp"
 #include "splitray/io/mesh_io.hpp"
 #include "splitray/io/read_file.hpp"
 
@@ -94,22 +95,23 @@ std::vector<std::string> expand_one(const std::string& arg) {
   return out;
 }
 
-// Keyframes of an MD2 file: the count is the int32 at byte 40 of its header.
+// Keyframes of an MD2 file (the int32 at byte 40 of its header), once the whole file checks.
 int md2_frame_count(const std::string& path) {
   const Bytes bytes = read_file(path);
-  if (bytes.size() < 68 || std::memcmp(bytes.data(), "IDP2", 4) != 0)
-    throw Error(path, "not an MD2 file (no IDP2 header)");
+  check_md2(bytes, path);
   std::int32_t frames;
   std::memcpy(&frames, bytes.data() + 40, 4);
-  if (frames < 1 || frames > 1 << 16)
-    throw Error(path, "MD2 header gives " + std::to_string(frames) + " frames");
   return frames;
 }
 
 std::vector<Triangle> load_md2_frame(const std::string& path, int frame) {
+  // The bytes checked are the bytes assimp reads (the file may change between frames).
+  const Bytes bytes = read_file(path);
+  check_md2(bytes, path);
   Assimp::Importer importer;
   importer.SetPropertyInteger(AI_CONFIG_IMPORT_MD2_KEYFRAME, frame);
-  const aiScene* scene = importer.ReadFile(path, aiProcess_ValidateDataStructure);
+  const aiScene* scene = importer.ReadFileFromMemory(bytes.data(), bytes.size(),
+                                                     aiProcess_ValidateDataStructure, "md2");
   if (!scene || scene->mNumMeshes == 0)
     throw Error(path + " frame " + std::to_string(frame),
                 std::string("assimp cannot read it: ") + importer.GetErrorString());
