@@ -41,7 +41,7 @@ struct BuildConfig {
   int max_leaf_prims = 1;    // a node with this many or fewer primitives is never split
   int bins = 64;             // binned builders
   int threads = 0;           // 0 = all cores; the built structure never depends on it
-  NeuralConfig neural;       // --builder neural (paper 003)
+  NeuralConfig neural{};     // --builder neural (paper 003)
 
   // The one resolution of the SAH constants: those given, else the structure's `defaults`.
   SahConstants sah(SahConstants defaults) const {

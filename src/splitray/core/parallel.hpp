@@ -1,7 +1,8 @@
 #pragma once
 // Every parallel construct of the library: loops over chunks or indices, fork-join of a few
-// functions, and reductions over fixed chunks, all over TBB, and a scope that limits the worker
-// count. Work is split so that results never depend on which thread ran what.
+// functions, reductions over fixed chunks and per-thread scratch (ThreadLocal), all over TBB,
+// and a scope that limits the worker count. Work is split so that results never depend on which
+// thread ran what.
 //
 // ThreadSanitizer cannot see how TBB orders work (its scheduler synchronises with atomics inside
 // Debian's uninstrumented libtbb.so), so in TSan builds the same constructs run on plain threads
@@ -9,6 +10,7 @@
 // rest (at most kTsanHelpers alive in the whole process, else the work runs inline) and joined
 // before the construct returns. Chunks are handed out by a relaxed counter, which orders
 // nothing, so races between tasks are still found; the worker limits below are honoured.
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
@@ -28,7 +30,9 @@
 #endif
 #if defined(SPLITRAY_TSAN)
 #include <atomic>
+#include <deque>
 #include <exception>
+#include <map>
 #include <mutex>
 #include <thread>
 #endif
@@ -119,7 +123,35 @@ void parallel_invoke(const Functions&... functions) {
   detail::run_items(calls.size(), [&](std::size_t i) { calls[i](); });
 }
 
+// One T per thread that asks for it (scratch arenas, counters); iterate only when no construct
+// runs. TBB's enumerable_thread_specific synchronises its table with atomics TSan cannot
+// pair, so here it is a locked map from thread to a T of stable address.
+template <typename T>
+class ThreadLocal {
+ public:
+  T& local() {
+    const std::lock_guard lock(mutex_);
+    T*& slot = slots_[std::this_thread::get_id()];
+    if (!slot) slot = &values_.emplace_back();
+    return *slot;
+  }
+  auto begin() { return values_.begin(); }
+  auto end() { return values_.end(); }
+  auto begin() const { return values_.begin(); }
+  auto end() const { return values_.end(); }
+
+ private:
+  std::mutex mutex_;
+  std::map<std::thread::id, T*> slots_;
+  std::deque<T> values_;
+};
+
 #else
+
+// One T per thread that asks for it (scratch arenas, counters); iterate only when no construct
+// runs.
+template <typename T>
+using ThreadLocal = tbb::enumerable_thread_specific<T>;
 
 // Calls body(begin, end) on disjoint chunks of [0, n) of about `grain` items, in parallel.
 template <typename Body>

@@ -18,7 +18,7 @@ struct NeighborIndexConfig {
   // Batched peer queries in the given order (false, as their users call them) or in our
   // Morton order (true: shows how much of a difference is query order alone).
   bool coherent_peers = false;
-  NeuralConfig neural;  // builder "neural": see PointTreeConfig
+  NeuralConfig neural{};  // builder "neural": see PointTreeConfig
 };
 
 class NeighborIndex {

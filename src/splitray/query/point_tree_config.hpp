@@ -24,7 +24,7 @@ struct PointTreeConfig {
   float point_cost = 1.0f;      // c_i
   // builder "neural" (paper 003): the model (empty = the shipped models/vvh.bin), the builder
   // of the inferred top's leaf cells (empty = vvh), the top's smallest node in points.
-  NeuralConfig neural;
+  NeuralConfig neural{};
 };
 
 // Interior: the points below have coordinate[axis] <= below_max < above_min <= the points

@@ -8,7 +8,6 @@
 // tasks; small subtrees run sequentially on a per-thread bump arena. Decisions depend only
 // on the data, so the tree is the same for any thread count.
 //
-#include <tbb/enumerable_thread_specific.h>
 
 #include <string>
 #include <vector>
@@ -141,7 +140,7 @@ class BinnedBuilder {
   }
 
   std::span<const Triangle> triangles_;
-  mutable tbb::enumerable_thread_specific<BumpArena> arenas_;
+  mutable ThreadLocal<BumpArena> arenas_;
   KdSplitCost cost_;
   int bins_;
   int max_depth_;

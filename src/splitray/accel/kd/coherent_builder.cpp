@@ -17,8 +17,6 @@
 // the filters' state, so the tree is the same for any thread count.
 #include "splitray/accel/kd/coherent_builder.hpp"
 
-#include <tbb/enumerable_thread_specific.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -146,7 +144,7 @@ struct Locals {
   BumpArena refs, scratch;
   Counters counters;
 };
-using ThreadLocals = tbb::enumerable_thread_specific<Locals>;
+using ThreadLocals = ThreadLocal<Locals>;
 
 class CoherentFrame {
  public:

@@ -26,7 +26,6 @@
 // a node it decides by the prediction alone hands its children plain PrimRef arrays (no
 // sorted lists to keep), which search their predicted bracket in one pass over their
 // bounds; a node whose prediction fails gets its sorted lists made on the spot.
-#include <tbb/enumerable_thread_specific.h>
 
 #include <algorithm>
 #include <cmath>
@@ -443,7 +442,7 @@ class GoldenBuilder {
   std::span<const Triangle> triangles_;
   const SplitPredictor* predictor_;
   bool record_;
-  mutable tbb::enumerable_thread_specific<Arenas> arenas_;
+  mutable ThreadLocal<Arenas> arenas_;
   KdSplitCost cost_;
   int max_depth_;
   std::size_t max_leaf_;
