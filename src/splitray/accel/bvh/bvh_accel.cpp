@@ -9,15 +9,12 @@ namespace {
 
 class BvhAccel final : public Accel {
  public:
-  BvhAccel(std::span<const Triangle> triangles, const BuildConfig& config)
-      : traversal_cost_(config.sah(kSharedSah).traversal),
-        intersection_cost_(config.sah(kSharedSah).intersection) {
-    Timer timer;
-    bvh_ = Bvh::build(triangles, config.builder, BvhBuildOptions::from(config));
-    stats_.build_ms = timer.ms();
+  BvhAccel(Bvh bvh, const BuildConfig& config, double build_ms)
+      : bvh_(std::move(bvh)), sah_(config.sah(kSharedSah)) {
     stats_.accel = "bvh";
     stats_.builder = config.builder;
-    bvh_.fill_stats(stats_, traversal_cost_, intersection_cost_);
+    stats_.build_ms = build_ms;
+    bvh_.fill_stats(stats_, sah_.traversal, sah_.intersection);
   }
 
   Hit closest_hit(const Ray& ray) const override { return bvh_.intersect(ray); }
@@ -28,20 +25,26 @@ class BvhAccel final : public Accel {
     Timer timer;
     bvh_.refit(triangles);
     stats_.build_ms = timer.ms();
-    bvh_.fill_stats(stats_, traversal_cost_, intersection_cost_);
+    bvh_.fill_stats(stats_, sah_.traversal, sah_.intersection);
     return true;
   }
 
  private:
   Bvh bvh_;
+  SahConstants sah_;
   AccelStats stats_;
-  float traversal_cost_, intersection_cost_;
 };
 
 }  // namespace
 
 std::unique_ptr<Accel> make_bvh(std::span<const Triangle> triangles, const BuildConfig& config) {
-  return std::make_unique<BvhAccel>(triangles, config);
+  Timer timer;
+  Bvh bvh = Bvh::build(triangles, config.builder, BvhBuildOptions::from(config));
+  return wrap_bvh(std::move(bvh), config, timer.ms());
+}
+
+std::unique_ptr<Accel> wrap_bvh(Bvh bvh, const BuildConfig& config, double build_ms) {
+  return std::make_unique<BvhAccel>(std::move(bvh), config, build_ms);
 }
 
 }  // namespace splitray

@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "splitray/accel/bvh/bvh.hpp"
+#include "splitray/accel/bvh/bvh_accel.hpp"
 #include "splitray/accel/bvh/kd_top_bvh.hpp"
 #include "splitray/accel/kd/kd_accel.hpp"
 #include "splitray/accel/kd/kd_sah.hpp"
@@ -42,31 +43,6 @@ class NeuralAccel final : public Accel {
 
  private:
   std::unique_ptr<Accel> inner_;
-  AccelStats stats_;
-};
-
-// A Bvh behind the interface (the registry's own BVH adapter builds its tree itself).
-class TopBvhAccel final : public Accel {
- public:
-  TopBvhAccel(Bvh bvh, const BuildConfig& config) : bvh_(std::move(bvh)), config_(config) {
-    const SahConstants k = config.sah(kSharedSah);  // the BVH's defaults
-    bvh_.fill_stats(stats_, k.traversal, k.intersection);
-  }
-  Hit closest_hit(const Ray& ray) const override { return bvh_.intersect(ray); }
-  bool any_hit(const Ray& ray) const override { return bvh_.occluded(ray); }
-  const AccelStats& stats() const override { return stats_; }
-  bool refit_to(std::span<const Triangle> triangles) override {
-    Timer timer;
-    bvh_.refit(triangles);
-    stats_.build_ms = timer.ms();
-    const SahConstants k = config_.sah(kSharedSah);
-    bvh_.fill_stats(stats_, k.traversal, k.intersection);
-    return true;
-  }
-
- private:
-  Bvh bvh_;
-  BuildConfig config_;
   AccelStats stats_;
 };
 
@@ -257,7 +233,7 @@ std::unique_ptr<Accel> make_neural_bvh(std::span<const Triangle> triangles,
     cells[i].child[1] = n.child[1];
   }
   Bvh bvh = build_top_bvh(triangles, cells, expander, BvhBuildOptions::from(config));
-  auto inner = std::make_unique<TopBvhAccel>(std::move(bvh), config);
+  std::unique_ptr<Accel> inner = wrap_bvh(std::move(bvh), config, timer.ms());
   AccelStats stats = inner->stats();
   stats.build_ms = timer.ms();
   stats.accel = "bvh";
