@@ -59,6 +59,14 @@ namespace detail {
 
 inline constexpr int kTsanHelpers = 8;
 
+// Every helper locks this once its work is done and ThreadLocal::local() locks it too: a
+// helper's thread id (and with it its ThreadLocal slot) may be reused by a thread that an
+// unrelated construct starts, and TSan must see the first thread's writes ordered before.
+inline std::mutex& handoff_mutex() {
+  static std::mutex mutex;
+  return mutex;
+}
+
 // The workers a construct may use here: the smallest of the ThreadLimit in force and the
 // enclosing task_arena's concurrency.
 int worker_limit();
@@ -83,6 +91,7 @@ void run_workers(int count, const Work& work) {
       const std::lock_guard lock(error_mutex);
       if (!error) error = std::current_exception();
     }
+    const std::lock_guard handoff(handoff_mutex());
   };
   std::vector<std::thread> threads;
   for (int h = 1; h <= helpers; ++h) threads.emplace_back(guarded, h);
@@ -125,12 +134,13 @@ void parallel_invoke(const Functions&... functions) {
 
 // One T per thread that asks for it (scratch arenas, counters); iterate only when no construct
 // runs. TBB's enumerable_thread_specific synchronises its table with atomics TSan cannot
-// pair, so here it is a locked map from thread to a T of stable address.
+// pair, so here it is a locked map from thread to a T of stable address (a thread id, and its
+// slot, may pass to a later thread: see detail::handoff_mutex).
 template <typename T>
 class ThreadLocal {
  public:
   T& local() {
-    const std::lock_guard lock(mutex_);
+    const std::lock_guard lock(detail::handoff_mutex());
     T*& slot = slots_[std::this_thread::get_id()];
     if (!slot) slot = &values_.emplace_back();
     return *slot;
@@ -141,7 +151,6 @@ class ThreadLocal {
   auto end() const { return values_.end(); }
 
  private:
-  std::mutex mutex_;
   std::map<std::thread::id, T*> slots_;
   std::deque<T> values_;
 };
