@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs every Debian 12 package that splitray's build, tests and main job need.
 # Idempotent: when all of them are installed already it only checks and returns (no apt).
-# Runs apt-get as root, or through sudo when not root.
+# Runs apt-get as root, or through sudo when not root. `--checks` adds what the fuzzing and
+# sanitizer step (.ci/checks) needs: clang with libFuzzer and its sanitizer runtimes.
 set -euo pipefail
 
 packages=(
@@ -25,6 +26,11 @@ packages=(
   # peers (scipy's cKDTree, Open3D's RaycastingScene)
   python3-dev pybind11-dev python3-pybind11 python3-pytest python3-scipy python3-open3d
 )
+case "${1:-}" in
+  "") ;;
+  --checks) packages+=(clang libclang-rt-14-dev) ;;
+  *) echo "usage: scripts/install-deps.sh [--checks]" >&2; exit 2 ;;
+esac
 
 missing=()
 for package in "${packages[@]}"; do
