@@ -3,6 +3,7 @@
 #include <memory>
 
 #include "build_trace.hpp"
+#include "bvh_bench.hpp"
 #include "dist_bench.hpp"
 #include "hybrid_bench.hpp"
 #include "kd_costs.hpp"
@@ -31,6 +32,18 @@ void add_bench_subcommands(CLI::App& bench) {
       "and Embree low/medium/high on every real mesh; JSON and Markdown reports");
   add_build_trace_options(*build_trace, *build_trace_options);
   build_trace->callback([build_trace_options] { build_trace_command(*build_trace_options); });
+
+  auto bvh_options = std::make_shared<BvhBenchOptions>();
+  CLI::App* bvh = bench.add_subcommand(
+      "bvh",
+      "Our BVHs (binned, sbvh) against Embree (medium, high; low too) on every benchmark mesh and "
+      "any mesh given with its camera: build time and SAH cost, primary and diffuse Mrays/s from "
+      "several viewpoints, single and batched, at 1 and all threads; nodes, boxes and triangle "
+      "blocks per ray");
+  add_bvh_bench_options(*bvh, *bvh_options);
+  bvh->callback([bvh_options] {
+    if (const int code = bvh_bench_command(*bvh_options); code != 0) throw CLI::RuntimeError(code);
+  });
 
   auto kd_costs_options = std::make_shared<KdCostsOptions>();
   CLI::App* kd_costs = bench.add_subcommand(

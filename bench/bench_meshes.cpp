@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <numbers>
 
+#include "camera_option.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/render/data_dir.hpp"
 
@@ -86,6 +87,28 @@ Camera fit_camera(std::span<const Triangle> triangles, float vfov_degrees) {
   return camera;
 }
 
+std::vector<Camera> turned_views(const Camera& base, int count, const Aabb& bounds) {
+  const Vec3 axis = normalize(base.up);
+  const bool inside = bounds.contains(base.eye);
+  std::vector<Camera> views;
+  for (int k = 0; k < count; ++k) {
+    const float angle =
+        2 * std::numbers::pi_v<float> * static_cast<float>(k) / static_cast<float>(count);
+    const float c = std::cos(angle), s = std::sin(angle);
+    // Rodrigues' rotation of v about the unit axis.
+    const auto turn = [&](const Vec3& v) {
+      return v * c + cross(axis, v) * s + axis * (dot(axis, v) * (1 - c));
+    };
+    Camera view = base;
+    if (inside)
+      view.target = base.eye + turn(base.target - base.eye);
+    else
+      view.eye = base.target + turn(base.eye - base.target);
+    views.push_back(view);
+  }
+  return views;
+}
+
 std::string shared_data_dir() {
   if (const char* env = std::getenv("SPLITRAY_SHARED_DATA")) return env;
   const fs::path beside = fs::path(SPLITRAY_SOURCE_DIR).parent_path() / "shared" / "data";
@@ -118,11 +141,19 @@ std::vector<BenchMesh> select_meshes(const std::vector<BenchMesh>& all,
                                      const std::vector<std::string>& wanted) {
   if (wanted.empty()) return all;
   std::vector<BenchMesh> selected;
-  for (const std::string& name : wanted) {
+  for (const std::string& entry : wanted) {
+    // NAME or FILE, optionally @EX,EY,EZ,TX,TY,TZ[,FOV]: the camera to measure from.
+    const std::size_t at = entry.rfind('@');
+    const std::string name = entry.substr(0, at);
+    std::optional<Camera> camera;
+    if (at != std::string::npos)
+      camera = cli::to_camera(cli::parse_camera(entry.substr(at + 1), "--meshes " + entry),
+                              Camera{}.vfov_degrees);
     bool found = false;
     for (const BenchMesh& mesh : all) {
       if (mesh.name != name) continue;
       selected.push_back(mesh);
+      if (camera) selected.back().camera = camera, selected.back().view = "given camera";
       found = true;
     }
     if (found) continue;
@@ -132,7 +163,8 @@ std::vector<BenchMesh> select_meshes(const std::vector<BenchMesh>& all,
       throw Error("--meshes",
                   "'" + name + "' is neither a benchmark mesh (" + known + ") nor a mesh file");
     }
-    selected.push_back({fs::path(name).stem().string(), name, std::nullopt, "outside"});
+    selected.push_back(
+        {fs::path(name).stem().string(), name, camera, camera ? "given camera" : "outside"});
   }
   return selected;
 }

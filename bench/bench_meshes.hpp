@@ -24,6 +24,12 @@ struct BenchMesh {
 // ray grid (4:3): the object fills the picture instead of a fraction of it.
 Camera fit_camera(std::span<const Triangle> triangles, float vfov_degrees = 45);
 
+// `count` viewpoints of a mesh from `base` (the first is `base`): turned about the camera's up
+// axis in equal steps, about the eye when it lies inside `bounds` (looking around a room), else
+// about the target (walking around an object). Measuring from several viewpoints keeps a
+// result from depending on one picture.
+std::vector<Camera> turned_views(const Camera& base, int count, const Aabb& bounds);
+
 // ../shared/data next to the source tree, or $SPLITRAY_SHARED_DATA; "" if absent.
 std::string shared_data_dir();
 
@@ -32,7 +38,8 @@ std::string shared_data_dir();
 std::vector<BenchMesh> benchmark_meshes(bool quick, std::vector<std::string>& notes);
 
 // Picks meshes by name from `all`; an entry that names no mesh but an existing file becomes
-// a mesh of its own (viewed from outside). Throws Error("--meshes", ...) otherwise.
+// a mesh of its own (viewed from outside). An entry may end in @EX,EY,EZ,TX,TY,TZ[,FOV], the
+// camera to measure from (e.g. inside a room). Throws Error("--meshes", ...) otherwise.
 std::vector<BenchMesh> select_meshes(const std::vector<BenchMesh>& all,
                                      const std::vector<std::string>& wanted);
 

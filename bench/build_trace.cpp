@@ -21,6 +21,7 @@
 #include "splitray/io/mesh_io.hpp"
 #include "splitray/io/plot_script.hpp"
 #include "splitray/render/ray_sets.hpp"
+#include "trace_measure.hpp"
 
 namespace splitray::bench {
 
@@ -50,42 +51,6 @@ std::vector<Structure> structures(const std::vector<std::string>& accels) {
   std::stable_partition(list.begin(), list.end(),
                         [](const Structure& s) { return s.accel != "embree"; });
   return list;
-}
-
-struct Checksum {
-  std::uint64_t hits = 0, id_checksum = 0;  // id_checksum: sum of (prim + 1), as `trace`
-};
-
-Checksum checksum(std::span<const Hit> hits) {
-  Checksum c;
-  for (const Hit& h : hits) {
-    if (!h.found()) continue;
-    ++c.hits;
-    c.id_checksum += static_cast<std::uint64_t>(h.prim) + 1;
-  }
-  return c;
-}
-
-std::size_t differing(std::span<const Hit> a, std::span<const Hit> b) {
-  std::size_t n = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) n += a[i].prim != b[i].prim;
-  return n;
-}
-
-// Median Mrays/s of `runs` timed passes of `pass` over `count` rays, after one warm-up pass.
-template <typename Pass>
-Json throughput(std::size_t count, int runs, const Pass& pass) {
-  pass();
-  std::vector<double> ms;
-  for (int r = 0; r < runs; ++r) {
-    Timer timer;
-    pass();
-    ms.push_back(timer.ms());
-  }
-  const double m = median(ms);
-  return Json{{"mrays_per_s", m > 0 ? static_cast<double>(count) / (m * 1000.0) : 0.0},
-              {"ms", m},
-              {"ms_runs", ms}};
 }
 
 struct RaySet {
@@ -175,13 +140,6 @@ void add_ratios(Json& rows) {
   }
 }
 
-Json camera_json(const Camera& c, const std::string& view) {
-  return Json{{"view", view},
-              {"eye", {c.eye.x, c.eye.y, c.eye.z}},
-              {"target", {c.target.x, c.target.y, c.target.z}},
-              {"vfov_degrees", c.vfov_degrees}};
-}
-
 }  // namespace
 
 void add_build_trace_options(CLI::App& command, BuildTraceOptions& options) {
@@ -193,7 +151,8 @@ void add_build_trace_options(CLI::App& command, BuildTraceOptions& options) {
       ->check(CLI::PositiveNumber);
   command.add_option("--meshes", options.meshes,
                      "Benchmark meshes by name (horse, dragon, sibenik, cornell_box, ...) or mesh "
-                     "files; default: all present");
+                     "files, each optionally with @EX,EY,EZ,TX,TY,TZ[,FOV], the camera to measure "
+                     "from; default: all present");
   command.add_flag("--quick", options.quick,
                    "Smoke test: the two vendored meshes, 1 run, 65536 rays");
   command.add_option(

@@ -7,10 +7,10 @@
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
-#include <sstream>
 
 #include "bench_meshes.hpp"
 #include "bench_report.hpp"
+#include "camera_option.hpp"
 #include "machine.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/core/image.hpp"
@@ -75,27 +75,6 @@ Material diffuse(const std::string& name, const Vec3& color, const Vec3& specula
   m.specular = specular;
   m.shininess = shininess;
   return m;
-}
-
-Camera parse_camera_option(const std::string& text) {
-  std::vector<float> v;
-  std::stringstream in(text);
-  std::string item;
-  while (std::getline(in, item, ',')) {
-    try {
-      v.push_back(std::stof(item));
-    } catch (const std::exception&) {
-      throw Error("--camera", "'" + item + "' is not a number");
-    }
-  }
-  if (v.size() != 6 && v.size() != 7)
-    throw Error("--camera",
-                "expected EX,EY,EZ,TX,TY,TZ[,FOV], got " + std::to_string(v.size()) + " numbers");
-  Camera c;
-  c.eye = {v[0], v[1], v[2]};
-  c.target = {v[3], v[4], v[5]};
-  if (v.size() == 7) c.vfov_degrees = v[6];
-  return c;
 }
 
 std::string fmt_ms(double ms) { return fmt::format("{:.1f}", ms); }
@@ -181,7 +160,10 @@ void add_hybrid_bench_options(CLI::App& command, HybridBenchOptions& options) {
       "SCENE", options.scene,
       "Mesh or JSON scene, or 'default' for the built-in scene of `render` (default: "
       ">500k triangles of real meshes with a mirror sphere, ~10% reflective pixels)");
-  command.add_option("--camera", options.camera, "EX,EY,EZ,TX,TY,TZ[,FOV] (default: the scene's)");
+  cli::add_camera_option(command, options.camera)
+      ->description(
+          "Pinhole camera: eye EX,EY,EZ, target TX,TY,TZ and optional vertical FOV in degrees "
+          "(default: the scene's)");
   command.add_option("-W,--width", options.width, "Image width")->check(CLI::Range(16, 8192));
   command.add_option("-H,--height", options.height, "Image height")->check(CLI::Range(16, 8192));
   command.add_option("-d,--max-depth", options.max_depth, "Reflection and refraction bounces")
@@ -219,7 +201,7 @@ json run_hybrid_bench_report(const HybridBenchOptions& o) {
                       : o.scene == "default" ? default_scene()
                                              : load_scene(o.scene);
   const Camera camera = !o.camera.empty()
-                            ? parse_camera_option(o.camera)
+                            ? cli::to_camera(cli::parse_camera(o.camera), Camera{}.vfov_degrees)
                             : (scene.camera ? *scene.camera : Camera::frame(scene.bounds()));
   ThreadLimit limit(o.threads);
 

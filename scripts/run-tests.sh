@@ -15,7 +15,7 @@ ctest --test-dir build --output-on-failure -j 2 --timeout 900
 echo "== command-line checks"
 splitray=build/apps/splitray/splitray
 "$splitray" --help > /dev/null
-for command in render build trace knn animate view train bench "bench build-trace" "bench knn" "bench hybrid" "bench neural"; do "$splitray" $command --help > /dev/null; done
+for command in render build trace knn animate view train bench "bench build-trace" "bench bvh" "bench knn" "bench hybrid" "bench neural"; do "$splitray" $command --help > /dev/null; done
 "$splitray" build data/horse/horse.obj.gz --accel kd
 
 # kd and brute must find the same closest hits: compare hits and id_checksum of two `trace

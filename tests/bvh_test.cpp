@@ -2,10 +2,13 @@
 // conversion: every answer must be exactly brute's (hierarchy_oracle.hpp).
 #include "splitray/accel/bvh/bvh.hpp"
 
+#include <cmath>
 #include <cstring>
 
 #include "hierarchy_oracle.hpp"
 #include "splitray/accel/bvh/kd_top_bvh.hpp"
+#include "splitray/accel/robust_ray.hpp"
+#include "splitray/core/camera.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/core/huge_page_allocator.hpp"
 #include "splitray/core/parallel.hpp"
@@ -81,6 +84,71 @@ TEST(Bvh, DegenerateInputsMatchBrute) {
       for (std::size_t i = 0; i < rays.size(); ++i) {
         ASSERT_TRUE(same_hit(brute.hits[i], got.hits[i])) << name << " " << builder << " ray " << i;
         ASSERT_EQ(brute.occluded[i], got.occluded[i]) << name << " " << builder << " ray " << i;
+      }
+    }
+  }
+}
+
+// Groups of sixteen rays that the batched calls walk as packets (same direction signs, close
+// directions): each of the hard rays with fifteen companions from origins moved a little, and
+// primary rays of a camera, row by row. Every ray's answer must still be brute's.
+std::vector<Ray> coherent_groups(const std::vector<Triangle>& tris, std::size_t groups) {
+  const std::vector<Ray> hard = hard_rays(tris, groups, 11);
+  const float step = length(bounds_of(tris).extent()) * 1e-3f;
+  Pcg32 rng(5);
+  std::vector<Ray> rays;
+  for (const Ray& base : hard)
+    for (int k = 0; k < WideBvh::kPacketRays; ++k) {
+      Ray r = base;
+      if (k > 0)
+        for (int a = 0; a < 3; ++a)
+          r.org[a] += step * (rng.next_float() - 0.5f) * static_cast<float>(k);
+      rays.push_back(r);
+    }
+  Camera camera = Camera::frame(bounds_of(tris));
+  for (int y = 0; y < 48; ++y)
+    for (int x = 0; x < 64; ++x) rays.push_back(camera.generate(x + 0.5f, y + 0.5f, 64, 48));
+  return rays;
+}
+
+TEST(Bvh, PacketsMatchBrute) {
+  const Reference& ref = reference(vendored_file(kHorse));
+  std::vector<std::pair<std::string, std::vector<Triangle>>> cases = {
+      {"horse", ref.tris}, {"plane grid", grid_in_plane(24)}};
+  for (const auto& [name, tris] : cases) {
+    const std::vector<Ray> rays = coherent_groups(tris, 400);
+    const Answers brute = brute_answers(tris, rays);
+    for (const std::string builder : {"binned", "sbvh"}) {
+      BuildConfig config;
+      config.builder = builder;
+      const auto accel = make_accel("bvh", tris, config);
+      expect_same_answers(brute, answers_of(*accel, rays), rays, name + " bvh " + builder);
+      if constexpr (WideBvh::kPackets) {  // every group as a packet, whatever its coherence
+        const Bvh bvh = Bvh::build(tris, builder, BvhBuildOptions::from(config));
+        std::size_t wrong = 0, packets = 0;
+        for (std::size_t i = 0; i + WideBvh::kPacketRays <= rays.size();
+             i += WideBvh::kPacketRays) {
+          const std::span<const Ray> group(rays.data() + i, WideBvh::kPacketRays);
+          bool same_signs = true;
+          for (const Ray& r : group)
+            for (int a = 0; a < 3; ++a)
+              same_signs = same_signs && std::signbit(r.dir[a]) == std::signbit(group[0].dir[a]);
+          if (!same_signs) continue;  // the packet walk's precondition
+          ++packets;
+          Hit hits[WideBvh::kPacketRays];
+          bvh.wide().intersect_packet(group, bvh.bounds(), coordinate_magnitude(bvh.bounds()),
+                                      hits);
+          const unsigned occluded =
+              bvh.wide().occluded_packet(group, bvh.bounds(), coordinate_magnitude(bvh.bounds()));
+          for (int r = 0; r < WideBvh::kPacketRays; ++r) {
+            Hit expected = brute.hits[i + r];
+            if (!expected.found()) expected.t = group[r].tmax;  // the packet leaves t = tmax
+            wrong += same_hit(expected, hits[r]) ? 0 : 1;
+            wrong += ((occluded >> r) & 1u) == brute.occluded[i + r] ? 0 : 1;
+          }
+        }
+        EXPECT_EQ(wrong, 0u) << name << " " << builder;
+        EXPECT_GT(packets, rays.size() / WideBvh::kPacketRays / 2) << name << " " << builder;
       }
     }
   }

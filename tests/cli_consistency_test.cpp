@@ -78,9 +78,17 @@ bool has_numpy() { return std::system("/usr/bin/python3 -c 'import numpy' > /dev
 // ------------------------------------------------------------------------- one JSON rule
 
 TEST_F(CliConsistency, EveryCommandHasJsonAndJsonOut) {
-  std::vector<std::string> commands = {
-      "render",    "build",        "trace",       "knn", "animate", "view", "bench build-trace",
-      "bench knn", "bench hybrid", "bench neural"};
+  std::vector<std::string> commands = {"render",
+                                       "build",
+                                       "trace",
+                                       "knn",
+                                       "animate",
+                                       "view",
+                                       "bench build-trace",
+                                       "bench bvh",
+                                       "bench knn",
+                                       "bench hybrid",
+                                       "bench neural"};
   if (fs::exists(kTrainer)) commands.push_back("train");  // splitray-train's own help
   for (const std::string& command : commands) {
     const Result help = run(command + " --help");
@@ -287,6 +295,27 @@ TEST_F(CliConsistency, BenchNeuralProgressIsTextNotJson) {
   EXPECT_EQ(r.err.find("{\""), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("speed x"), std::string::npos) << r.err;
   EXPECT_TRUE(json::accept(r.out));  // stdout: the report alone
+}
+
+// bench bvh on a mesh given with its camera: one row per structure and thread count, ratios
+// to Embree, our two BVHs agreeing on every ray, the per-ray profile; a bad camera is an error
+// naming the entry.
+TEST_F(CliConsistency, BenchBvhMeasuresAGivenMeshFromItsCamera) {
+  const std::string mesh = horse() + "@0.5,0.3,2,0,0.2,0,50";
+  const Result r = run("bench bvh --meshes " + quote(mesh) +
+                       " --threads 1 --runs 1 --rays 4096 --views 2 --json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const json report = json::parse(r.out);
+  const json& m = report["meshes"][0];
+  EXPECT_EQ(m["triangles"], 16843);
+  EXPECT_EQ(m["views"].size(), 2u);
+  EXPECT_EQ(m["runs"][0]["results"].size(), 5u);  // bvh binned, sbvh; embree low, medium, high
+  EXPECT_EQ(m["runs"][0]["binned_vs_sbvh_differing"]["primary"], 0);
+  EXPECT_GT(m["runs"][0]["ratios"]["sbvh"]["diffuse"]["batched"].get<double>(), 0.0);
+  EXPECT_GT(m["profile"][0]["diffuse"]["nodes_per_ray"].get<double>(), 0.0);
+  const Result bad = run("bench bvh --meshes " + quote(horse() + "@1,2,3") + " --json");
+  EXPECT_EQ(bad.status, 1);
+  EXPECT_NE(bad.err.find("--meshes"), std::string::npos) << bad.err;
 }
 
 // The benchmark scene's notes (bench/hybrid_bench.cpp) without running the benchmark: --quick

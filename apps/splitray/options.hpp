@@ -8,6 +8,7 @@
 #include <utility>
 #include <vector>
 
+#include "camera_option.hpp"
 #include "splitray/accel/accel.hpp"
 #include "splitray/core/camera.hpp"
 #include "splitray/core/triangle.hpp"
@@ -23,18 +24,11 @@ struct AccelOptions {
 };
 void add_accel_options(CLI::App& command, AccelOptions& options, bool report_unused = true);
 
-// --camera EX,EY,EZ,TX,TY,TZ[,FOV]: eye, target and an optional vertical field of view.
-struct CameraSpec {
-  Vec3 eye, target;
-  std::optional<float> vfov_degrees;
-};
-// Throws Error("--camera", ...) naming the problem.
-CameraSpec parse_camera(const std::string& text);
-// The camera of a spec; `default_vfov` when the spec has no FOV. Up is +y unless the view
-// is vertical, then +z.
-Camera to_camera(const CameraSpec& spec, float default_vfov);
-// Adds --camera to `command`, checked by parse_camera as CLI11 parses it.
-CLI::Option* add_camera_option(CLI::App& command, std::string& text);
+// --camera (apps/cli/camera_option.hpp), shared with the benchmarks.
+using cli::add_camera_option;
+using cli::CameraSpec;
+using cli::parse_camera;
+using cli::to_camera;
 
 // The triangles of a mesh file, or of every instance of a JSON scene file (*.json).
 struct Geometry {

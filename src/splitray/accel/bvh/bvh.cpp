@@ -1,6 +1,7 @@
 #include "splitray/accel/bvh/bvh.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 #include "splitray/accel/robust_ray.hpp"
 #include "splitray/accel/sah_cost.hpp"
@@ -138,6 +139,66 @@ Hit Bvh::intersect(const Ray& ray) const {
   wide_.intersect(ray, scene_, magnitude_, hit);
   if (!hit.found()) hit.t = kInfinity;
   return hit;
+}
+
+Hit Bvh::intersect_counted(const Ray& ray, WideBvhCounts& counts) const {
+  Hit hit;
+  if (nodes_.empty()) return hit;
+  hit.t = ray.tmax;
+  wide_.intersect_counted(ray, scene_, magnitude_, hit, counts);
+  if (!hit.found()) hit.t = kInfinity;
+  return hit;
+}
+
+namespace {
+
+// Whether rays walk the tree well together: the same direction signs (so the same near and far
+// box planes) and directions within about 25 degrees of the first's, as neighbouring primary
+// rays, or shadow rays towards one light. Diverging rays (diffuse bounces) would each pay for
+// the nodes the others enter, so they walk alone.
+bool coherent(std::span<const Ray> rays) {
+  const Ray& first = rays[0];
+  const float first_length = length(first.dir);
+  for (const Ray& r : rays) {
+    for (int a = 0; a < 3; ++a)
+      if (std::signbit(r.dir[a]) != std::signbit(first.dir[a])) return false;
+    if (!(dot(r.dir, first.dir) >= 0.9f * length(r.dir) * first_length)) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+void Bvh::intersect(std::span<const Ray> rays, std::span<Hit> hits) const {
+  for (std::size_t i = 0; i < rays.size(); i += WideBvh::kPacketRays) {
+    const std::size_t n = std::min<std::size_t>(WideBvh::kPacketRays, rays.size() - i);
+    const std::span<const Ray> group = rays.subspan(i, n);
+    Hit* out = hits.data() + i;
+    if constexpr (WideBvh::kPackets) {
+      if (!nodes_.empty() && coherent(group)) {
+        wide_.intersect_packet(group, scene_, magnitude_, out);
+        for (std::size_t r = 0; r < n; ++r)
+          if (!out[r].found()) out[r] = Hit{};
+        continue;
+      }
+    }
+    for (std::size_t r = 0; r < n; ++r) out[r] = intersect(group[r]);
+  }
+}
+
+void Bvh::occluded(std::span<const Ray> rays, std::span<std::uint8_t> result) const {
+  for (std::size_t i = 0; i < rays.size(); i += WideBvh::kPacketRays) {
+    const std::size_t n = std::min<std::size_t>(WideBvh::kPacketRays, rays.size() - i);
+    const std::span<const Ray> group = rays.subspan(i, n);
+    if constexpr (WideBvh::kPackets) {
+      if (!nodes_.empty() && coherent(group)) {
+        const unsigned hit = wide_.occluded_packet(group, scene_, magnitude_);
+        for (std::size_t r = 0; r < n; ++r) result[i + r] = (hit >> r) & 1u;
+        continue;
+      }
+    }
+    for (std::size_t r = 0; r < n; ++r) result[i + r] = occluded(group[r]) ? 1 : 0;
+  }
 }
 
 bool Bvh::occluded(const Ray& ray) const {

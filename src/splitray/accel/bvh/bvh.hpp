@@ -36,6 +36,11 @@ class Bvh {
 
   Hit intersect(const Ray& ray) const;
   bool occluded(const Ray& ray) const;
+  // The same answers for many rays on this thread, walked in packets (wide_bvh_packet.cpp).
+  void intersect(std::span<const Ray> rays, std::span<Hit> hits) const;
+  void occluded(std::span<const Ray> rays, std::span<std::uint8_t> occluded) const;
+  // intersect(), adding what the ray cost in the wide layout to `counts` (benchmark profile).
+  Hit intersect_counted(const Ray& ray, WideBvhCounts& counts) const;
 
   // Node statistics and SAH cost (K_T per interior node, K_I per reference, by box area).
   void fill_stats(AccelStats& stats, float traversal_cost, float intersection_cost) const;

@@ -1,6 +1,7 @@
 #include "splitray/accel/bvh/bvh_accel.hpp"
 
 #include "splitray/accel/bvh/bvh.hpp"
+#include "splitray/core/parallel.hpp"
 #include "splitray/core/timer.hpp"
 
 namespace splitray {
@@ -20,6 +21,18 @@ class BvhAccel final : public Accel {
   Hit closest_hit(const Ray& ray) const override { return bvh_.intersect(ray); }
   bool any_hit(const Ray& ray) const override { return bvh_.occluded(ray); }
   const AccelStats& stats() const override { return stats_; }
+
+  // Batched calls: packets of neighbouring rays (each ray's answer is its single-ray answer).
+  void closest_hits(std::span<const Ray> rays, std::span<Hit> hits) const override {
+    parallel_chunks(rays.size(), 256, [&](std::size_t begin, std::size_t end) {
+      bvh_.intersect(rays.subspan(begin, end - begin), hits.subspan(begin, end - begin));
+    });
+  }
+  void any_hits(std::span<const Ray> rays, std::span<std::uint8_t> result) const override {
+    parallel_chunks(rays.size(), 256, [&](std::size_t begin, std::size_t end) {
+      bvh_.occluded(rays.subspan(begin, end - begin), result.subspan(begin, end - begin));
+    });
+  }
 
   bool refit_to(std::span<const Triangle> triangles) override {
     Timer timer;

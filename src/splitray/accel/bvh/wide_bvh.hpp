@@ -49,6 +49,13 @@ struct alignas(64) TriangleBlock {
 };
 static_assert(sizeof(TriangleBlock) == 320);
 
+// What rays cost in the wide layout, summed over rays (the benchmark's profile): wide nodes
+// visited, child boxes tested in them (non-empty slots), leaves entered, blocks of eight
+// triangles tested.
+struct WideBvhCounts {
+  std::uint64_t rays = 0, nodes = 0, boxes = 0, leaves = 0, blocks = 0;
+};
+
 class WideBvh {
  public:
   // Collapses `nodes` (root at 0, children side by side; leaves index `ids`) into the wide
@@ -61,6 +68,21 @@ class WideBvh {
   // Closest hit (hit.t = tmax on entry) or any hit, as Bvh::intersect / occluded.
   void intersect(const Ray& ray, const Aabb& scene, float magnitude, Hit& hit) const;
   bool occluded(const Ray& ray, const Aabb& scene, float magnitude) const;
+  // With AVX-512: up to kPacketRays rays with the same direction signs walked together, one
+  // SIMD lane each (wide_bvh_packet.cpp), each with the answer of intersect() / occluded():
+  // hits[i] (t = tmax when nothing is hit), and the rays that are occluded (bit per ray).
+  static constexpr int kPacketRays = 16;
+#if defined(__AVX512F__)
+  static constexpr bool kPackets = true;
+  void intersect_packet(std::span<const Ray> rays, const Aabb& scene, float magnitude,
+                        Hit* hits) const;
+  unsigned occluded_packet(std::span<const Ray> rays, const Aabb& scene, float magnitude) const;
+#else
+  static constexpr bool kPackets = false;
+#endif
+  // intersect(), adding what the ray cost to `counts` (a slower copy of the same walk).
+  void intersect_counted(const Ray& ray, const Aabb& scene, float magnitude, Hit& hit,
+                         WideBvhCounts& counts) const;
 
   std::size_t bytes() const {
     return nodes_.size() * sizeof(WideNode) + source_.size() * sizeof(std::uint32_t) +

@@ -1,24 +1,21 @@
-// Traversing the wide layout (wide_bvh.hpp). The slab test of the AVX paths (with FMA)
-// and of the scalar path round differently, but both stay within the padding of
-// robust_ray.hpp (min/max operand order keeps NaN out), so both let every ray through to
-// every triangle it may hit, and the answers come from the same watertight triangle test.
-#include "splitray/accel/bvh/wide_bvh.hpp"
-
-#if defined(__SSE__)
-#include <immintrin.h>
-#endif
-
+// Traversing the wide layout (wide_bvh.hpp) one ray at a time, with the node and block tests
+// of wide_bvh_tests.hpp.
 #include <algorithm>
 #include <bit>
 #include <limits>
 #include <optional>
 
-#include "splitray/accel/robust_ray.hpp"
-#include "splitray/core/triangle_simd.hpp"
+#include "splitray/accel/bvh/wide_bvh.hpp"
+#include "splitray/accel/bvh/wide_bvh_tests.hpp"
 
 namespace splitray {
 
 namespace {
+
+using wide_bvh::prefetch;
+using wide_bvh::test_leaf;
+using wide_bvh::WatertightBlock;
+using wide_bvh::WideSlab;
 
 constexpr int kStackSize = kWideWidth * 64;  // fewer than kWideWidth pushes per level, 64 levels
 
@@ -28,128 +25,32 @@ struct Entry {
   float t;
 };
 
-// The per-ray constants of the wide slab test: plane rows by direction sign, and the
-// origins and inverse direction broadcast once.
-struct WideSlab {
-  int near[3], far[3];
-#if defined(__AVX512F__)
-  __m512 org_near[3], org_far[3], inv[3];  // origin times inv
-#elif defined(__AVX__)
-  __m256 org_near[3], org_far[3], inv[3];  // org_*: origin times inv (FMA) or the origin
-#endif
-  const RobustRay& r;
-
-  explicit WideSlab(const RobustRay& ray) : r(ray) {
-    for (int a = 0; a < 3; ++a) {
-      near[a] = r.negative[a] ? 3 + a : a;
-      far[a] = r.negative[a] ? a : 3 + a;
-#if defined(__AVX512F__)
-      org_near[a] = _mm512_set1_ps(r.org_near[a] * r.inv[a]);
-      org_far[a] = _mm512_set1_ps(r.org_far[a] * r.inv[a]);
-      inv[a] = _mm512_set1_ps(r.inv[a]);
-#elif defined(__AVX__)
-#if defined(__FMA__)
-      org_near[a] = _mm256_set1_ps(r.org_near[a] * r.inv[a]);
-      org_far[a] = _mm256_set1_ps(r.org_far[a] * r.inv[a]);
-#else
-      org_near[a] = _mm256_set1_ps(r.org_near[a]);
-      org_far[a] = _mm256_set1_ps(r.org_far[a]);
-#endif
-      inv[a] = _mm256_set1_ps(r.inv[a]);
-#endif
-    }
-  }
-
-  // Entry parameters into all slots (within [tmin, tmax]); bit i set on a hit.
-  unsigned test(const WideNode& n, float tmin, float tmax, float* t_entry) const {
-#if defined(__AVX512F__)
-    __m512 t0 = _mm512_set1_ps(tmin), t1 = _mm512_set1_ps(tmax);
-    for (int a = 0; a < 3; ++a) {
-      const __m512 lo = _mm512_fmsub_ps(_mm512_load_ps(n.planes[near[a]]), inv[a], org_near[a]);
-      const __m512 hi = _mm512_fmsub_ps(_mm512_load_ps(n.planes[far[a]]), inv[a], org_far[a]);
-      // NaN in the first operand keeps t0 (as below); the zero-masked forms avoid a false
-      // may-be-uninitialised warning of GCC 12's plain _mm512_max_ps.
-      t0 = _mm512_maskz_max_ps(0xffff, lo, t0);
-      t1 = _mm512_maskz_min_ps(0xffff, hi, t1);
-    }
-    _mm512_store_ps(t_entry, t0);
-    return static_cast<unsigned>(_mm512_cmp_ps_mask(t0, t1, _CMP_LE_OQ));
-#elif defined(__AVX__)
-    __m256 t0 = _mm256_set1_ps(tmin), t1 = _mm256_set1_ps(tmax);
-    for (int a = 0; a < 3; ++a) {
-#if defined(__FMA__)
-      // plane * inv - org * inv in one rounding: the extra error of rounding org * inv is
-      // below 2^-24 |org inv|, 1/64 of the padding (robust_ray.hpp), so the test stays
-      // conservative; a zero direction component gives NaN, which keeps the slot (safe).
-      const __m256 lo = _mm256_fmsub_ps(_mm256_load_ps(n.planes[near[a]]), inv[a], org_near[a]);
-      const __m256 hi = _mm256_fmsub_ps(_mm256_load_ps(n.planes[far[a]]), inv[a], org_far[a]);
-      t0 = _mm256_max_ps(lo, t0);  // NaN in the first operand keeps t0
-      t1 = _mm256_min_ps(hi, t1);
-#else
-      const __m256 lo = _mm256_sub_ps(_mm256_load_ps(n.planes[near[a]]), org_near[a]);
-      const __m256 hi = _mm256_sub_ps(_mm256_load_ps(n.planes[far[a]]), org_far[a]);
-      t0 = _mm256_max_ps(_mm256_mul_ps(lo, inv[a]), t0);  // NaN in the first operand keeps t0
-      t1 = _mm256_min_ps(_mm256_mul_ps(hi, inv[a]), t1);
-#endif
-    }
-    _mm256_store_ps(t_entry, t0);
-    return static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(t0, t1, _CMP_LE_OQ)));
-#else
-    unsigned mask = 0;
-    for (int i = 0; i < kWideWidth; ++i) {
-      float t0 = tmin, t1 = tmax;
-      for (int a = 0; a < 3; ++a) {
-        t0 = max_keep(t0, (n.planes[near[a]][i] - r.org_near[a]) * r.inv[a]);
-        t1 = min_keep(t1, (n.planes[far[a]][i] - r.org_far[a]) * r.inv[a]);
-      }
-      t_entry[i] = t0;
-      if (t0 <= t1) mask |= 1u << i;
-    }
-    return mask;
-#endif
-  }
+// What the plain traversal counts: nothing (every call compiles away).
+struct NoCounts {
+  void node(const WideNode&) {}
+  void leaf(std::uint32_t) {}
 };
 
-// Asks for the cache lines of a node, or of a leaf's first block, before they are needed.
-template <std::size_t kBytes>
-inline void prefetch(const void* p) {
-#if defined(__SSE__)
-  const char* c = static_cast<const char*>(p);
-  for (std::size_t line = 0; line < kBytes; line += 64) _mm_prefetch(c + line, _MM_HINT_T0);
-#else
-  (void)p;
-#endif
-}
-
-// The eight triangles of a block through the 8-wide watertight test (core/triangle_simd.hpp);
-// the lanes it hands back, and without AVX every lane, go to the scalar test (the portable
-// build tests one triangle at a time).
-struct WatertightBlock {
-#if defined(__AVX__)
-  Watertight8 test8;
-  explicit WatertightBlock(const WatertightRay& ray) : test8(ray) {}
-  unsigned test(const TriangleBlock& b, float tmin, float tmax, float* t_out, float* u_out,
-                float* v_out, unsigned& scalar) const {
-    const auto load = [&](int vertex, int axis) { return _mm256_load_ps(b.v[3 * vertex + axis]); };
-    return test8.test(load, (1u << kBlockWidth) - 1, tmin, tmax, t_out, u_out, v_out, scalar);
+// What the counting traversal adds up for the benchmark's profile (bench/bvh_bench.cpp).
+struct Counting {
+  WideBvhCounts& c;
+  void node(const WideNode& n) {
+    ++c.nodes;
+    for (int i = 0; i < kWideWidth; ++i) c.boxes += n.planes[0][i] <= n.planes[3][i] ? 1 : 0;
   }
-#else
-  explicit WatertightBlock(const WatertightRay&) {}
-  unsigned test(const TriangleBlock&, float, float, float*, float*, float*,
-                unsigned& scalar) const {
-    scalar = (1u << kBlockWidth) - 1;
-    return 0;
+  void leaf(std::uint32_t blocks) {
+    ++c.leaves;
+    c.blocks += blocks;
   }
-#endif
 };
 
 // One query's traversal, in one loop whose state (current entry, stack, closest hit) lives in
 // locals the compiler keeps in registers. Children hit by the ray are entered nearest first;
 // the others wait on the stack, farther ones lower, and are skipped once behind the closest
 // hit. Returns true when an any-hit query found a hit.
-template <bool AnyHit>
+template <bool AnyHit, class Counts = NoCounts>
 bool traverse(std::span<const WideNode> node_span, std::span<const TriangleBlock> block_span,
-              const Ray& ray, const Aabb& scene, float magnitude, Hit& hit) {
+              const Ray& ray, const Aabb& scene, float magnitude, Hit& hit, Counts counts = {}) {
   const WideNode* const nodes = node_span.data();
   const TriangleBlock* const blocks = block_span.data();
   const RobustRay r(ray, scene, magnitude);
@@ -166,6 +67,7 @@ bool traverse(std::span<const WideNode> node_span, std::span<const TriangleBlock
   for (;;) {
     if (current.count == 0) {  // a wide node: enter the nearest hit child, push the others
       const WideNode& n = nodes[current.child];
+      counts.node(n);
       alignas(64) float t_entry[kWideWidth];
       unsigned mask = slab.test(n, tmin, best.t, t_entry);
       // Ask for every child that will be visited or pushed at once: the memory loads overlap
@@ -195,30 +97,10 @@ bool traverse(std::span<const WideNode> node_span, std::span<const TriangleBlock
         continue;
       }
     } else {  // a leaf: its blocks of eight triangles
-      const std::uint32_t end = current.child + current.count;
       if (!wb) wb.emplace(w.emplace(ray));
-      for (std::uint32_t b = current.child; b < end; ++b) {
-        alignas(32) float t[kBlockWidth], u[kBlockWidth], v[kBlockWidth];
-        unsigned scalar;
-        const TriangleBlock& block = blocks[b];
-        unsigned found = wb->test(block, tmin, best.t, t, u, v, scalar);
-        while (scalar != 0) {  // edge cases: the scalar test decides in double precision
-          const int lane = std::countr_zero(scalar);
-          scalar &= scalar - 1;
-          if (intersect_triangle(*w, block.triangle(lane), tmin, best.t, t[lane], u[lane], v[lane]))
-            found |= 1u << lane;
-        }
-        if constexpr (AnyHit) {
-          if (found != 0) return true;
-        } else {
-          while (found != 0) {
-            const int lane = std::countr_zero(found);
-            found &= found - 1;
-            const Hit candidate{t[lane], block.id[lane], u[lane], v[lane]};
-            if (candidate.closer_than(best)) best = candidate;
-          }
-        }
-      }
+      counts.leaf(current.count);
+      if (test_leaf<AnyHit>(blocks + current.child, current.count, *w, *wb, tmin, best) && AnyHit)
+        return true;
     }
     for (;;) {  // the next entry not behind the closest hit
       if (sp == 0) {
@@ -243,6 +125,13 @@ bool WideBvh::occluded(const Ray& ray, const Aabb& scene, float magnitude) const
   Hit hit;
   hit.t = ray.tmax;
   return traverse<true>(nodes_, blocks_, ray, scene, magnitude, hit);
+}
+
+void WideBvh::intersect_counted(const Ray& ray, const Aabb& scene, float magnitude, Hit& hit,
+                                WideBvhCounts& counts) const {
+  ++counts.rays;
+  if (nodes_.empty()) return;
+  traverse<false>(nodes_, blocks_, ray, scene, magnitude, hit, Counting{counts});
 }
 
 }  // namespace splitray

@@ -1,0 +1,171 @@
+// Packets of rays through the wide layout (wide_bvh.hpp), for the batched calls: sixteen rays
+// with the same direction signs walk the tree together, one SIMD lane per ray (Wald,
+// Slusallek, Benthin & Wagner 2001; Embree's packet traversal). A node's children are tested
+// one at a time against all rays at once, so the node is fetched once and each box test costs
+// the packet one vector step instead of each ray a share of its own 16-lane test. Every lane
+// computes its ray's slab test with the single-ray walk's float operations
+// (wide_bvh_tests.hpp), keeps its own closest hit and skips a child under the same rule; the
+// leaves' triangles are tested ray by ray with the same watertight test. So each ray's answer
+// is the one intersect(ray) gives. A child is entered for the rays whose boxes tests passed,
+// nearest first for the packet (by the least entry distance among them).
+#include "splitray/accel/bvh/wide_bvh.hpp"
+
+#if defined(__AVX512F__)
+#include <immintrin.h>
+
+#include <algorithm>
+#include <bit>
+#include <optional>
+
+#include "splitray/accel/bvh/wide_bvh_tests.hpp"
+
+namespace splitray {
+
+namespace {
+
+using wide_bvh::prefetch;
+using wide_bvh::test_leaf;
+using wide_bvh::WatertightBlock;
+
+constexpr int kLanes = WideBvh::kPacketRays;
+static_assert(kLanes == 16);
+constexpr int kStackSize = kWideWidth * 64;  // fewer than kWideWidth pushes per level, 64 levels
+
+struct Entry {
+  std::uint32_t child;
+  std::uint32_t count;  // 0: a wide node
+  std::uint32_t rays;   // the packet's rays that entered it (bit per ray)
+  float t;              // the least entry distance among them
+};
+
+// The triangle test's constants of one ray, made at its first leaf (as the single-ray walk).
+struct LeafRay {
+  std::optional<WatertightRay> w;
+  std::optional<WatertightBlock> wb;
+};
+
+template <bool AnyHit>
+unsigned traverse_packet(std::span<const WideNode> node_span,
+                         std::span<const TriangleBlock> block_span, const Ray* rays, int n,
+                         const Aabb& scene, float magnitude, Hit* best) {
+  const WideNode* const nodes = node_span.data();
+  const TriangleBlock* const blocks = block_span.data();
+  // Lane r: ray r's RobustRay constants, as WideSlab broadcasts them for the single-ray walk.
+  alignas(64) float org_near[3][kLanes] = {}, org_far[3][kLanes] = {}, inv[3][kLanes] = {};
+  alignas(64) float tmin[kLanes] = {}, tmax[kLanes] = {};
+  int near[3] = {}, far[3] = {};
+  for (int r = 0; r < n; ++r) {
+    const RobustRay robust(rays[r], scene, magnitude);
+    for (int a = 0; a < 3; ++a) {
+      org_near[a][r] = robust.org_near[a] * robust.inv[a];
+      org_far[a][r] = robust.org_far[a] * robust.inv[a];
+      inv[a][r] = robust.inv[a];
+      if (r == 0) {  // every ray of a packet has these signs (Bvh::intersect checks)
+        near[a] = robust.negative[a] ? 3 + a : a;
+        far[a] = robust.negative[a] ? a : 3 + a;
+      }
+    }
+    tmin[r] = rays[r].tmin;
+    best[r] = Hit{};
+    tmax[r] = best[r].t = rays[r].tmax;
+  }
+  __m512 v_org_near[3], v_org_far[3], v_inv[3];
+  for (int a = 0; a < 3; ++a) {
+    v_org_near[a] = _mm512_load_ps(org_near[a]);
+    v_org_far[a] = _mm512_load_ps(org_far[a]);
+    v_inv[a] = _mm512_load_ps(inv[a]);
+  }
+  const __m512 v_tmin = _mm512_load_ps(tmin);
+  __m512 v_best = _mm512_load_ps(tmax);  // lane r: best[r].t
+  LeafRay leaf_rays[kLanes];
+
+  const unsigned all = n == kLanes ? 0xffffu : (1u << n) - 1;
+  unsigned live = all;  // any hit: the rays not yet occluded
+  Entry stack[kStackSize];
+  int sp = 0;
+  Entry current{0, 0, live, 0};
+  for (;;) {
+    if (current.count == 0) {  // a wide node: each used child against every ray
+      const WideNode& node = nodes[current.child];
+      const __mmask16 rays_in = static_cast<__mmask16>(current.rays);
+      const unsigned used = _mm512_cmp_ps_mask(_mm512_load_ps(node.planes[0]),
+                                               _mm512_load_ps(node.planes[3]), _CMP_LE_OQ);
+      Entry nearest{0, 0, 0, kInfinity};
+      const int base = sp;
+      for (unsigned m = used; m != 0; m &= m - 1) {
+        const int c = std::countr_zero(m);
+        __m512 t0 = v_tmin, t1 = v_best;
+        for (int a = 0; a < 3; ++a) {
+          const __m512 lo =
+              _mm512_fmsub_ps(_mm512_set1_ps(node.planes[near[a]][c]), v_inv[a], v_org_near[a]);
+          const __m512 hi =
+              _mm512_fmsub_ps(_mm512_set1_ps(node.planes[far[a]][c]), v_inv[a], v_org_far[a]);
+          t0 = _mm512_maskz_max_ps(0xffff, lo, t0);  // NaN in the first operand keeps t0
+          t1 = _mm512_maskz_min_ps(0xffff, hi, t1);
+        }
+        const __mmask16 enter = _mm512_mask_cmp_ps_mask(rays_in, t0, t1, _CMP_LE_OQ);
+        if (enter == 0) continue;
+        if (node.count[c] == 0)
+          prefetch<sizeof(WideNode)>(&nodes[node.child[c]]);
+        else
+          prefetch<sizeof(TriangleBlock)>(&blocks[node.child[c]]);
+        alignas(64) float t_entry[kLanes];
+        _mm512_store_ps(t_entry, t0);
+        float t = kInfinity;
+        for (unsigned r = enter; r != 0; r &= r - 1) t = std::min(t, t_entry[std::countr_zero(r)]);
+        Entry e{node.child[c], node.count[c], enter, t};
+        if (nearest.rays == 0) {
+          nearest = e;
+          continue;
+        }
+        if (e.t < nearest.t) std::swap(e, nearest);
+        int j = sp++;  // keep this node's entries ordered: farther ones lower
+        for (; j > base && stack[j - 1].t < e.t; --j) stack[j] = stack[j - 1];
+        stack[j] = e;
+      }
+      if (nearest.rays != 0) {
+        current = nearest;
+        continue;
+      }
+    } else {  // a leaf: its blocks, ray by ray
+      for (unsigned m = current.rays; m != 0; m &= m - 1) {
+        const int r = std::countr_zero(m);
+        LeafRay& lr = leaf_rays[r];
+        if (!lr.wb) lr.wb.emplace(lr.w.emplace(rays[r]));
+        if (test_leaf<AnyHit>(blocks + current.child, current.count, *lr.w, *lr.wb, tmin[r],
+                              best[r]) &&
+            AnyHit)
+          live &= ~(1u << r);
+        tmax[r] = best[r].t;
+      }
+      if (AnyHit && live == 0) return all;
+      v_best = _mm512_load_ps(tmax);
+    }
+    for (;;) {  // the next entry with a ray whose closest hit is not in front of it
+      if (sp == 0) return all & ~live;
+      current = stack[--sp];
+      current.rays = _mm512_mask_cmp_ps_mask(static_cast<__mmask16>(current.rays & live),
+                                             _mm512_set1_ps(current.t), v_best, _CMP_LE_OQ);
+      if (current.rays != 0) break;
+    }
+  }
+}
+
+}  // namespace
+
+void WideBvh::intersect_packet(std::span<const Ray> rays, const Aabb& scene, float magnitude,
+                               Hit* hits) const {
+  traverse_packet<false>(nodes_, blocks_, rays.data(), static_cast<int>(rays.size()), scene,
+                         magnitude, hits);
+}
+
+unsigned WideBvh::occluded_packet(std::span<const Ray> rays, const Aabb& scene,
+                                  float magnitude) const {
+  Hit unused[kPacketRays];
+  return traverse_packet<true>(nodes_, blocks_, rays.data(), static_cast<int>(rays.size()), scene,
+                               magnitude, unused);
+}
+
+}  // namespace splitray
+
+#endif
