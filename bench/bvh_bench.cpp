@@ -11,6 +11,7 @@
 #include "machine.hpp"
 #include "splitray/accel/accel.hpp"
 #include "splitray/accel/bvh/bvh.hpp"
+#include "splitray/accel/bvh/wide_bvh_tests.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/core/parallel.hpp"
 #include "splitray/core/timer.hpp"
@@ -149,18 +150,62 @@ std::vector<std::vector<std::vector<Hit>>> trace_all(std::vector<Built>& built,
   return hits;
 }
 
+// What one node test and one block test of eight triangles cost (ns) with their data in the
+// L1 cache, over the first rays of `rays`: the compute part of a ray's time. The rest of what a
+// ray takes is the walk's control and waiting for memory.
+struct UnitCosts {
+  double node_ns = 0, block_ns = 0;
+};
+
+UnitCosts unit_costs(const Bvh& bvh, std::span<const Ray> all_rays) {
+  constexpr int kRepeats = 256;
+  const std::span<const Ray> rays = all_rays.first(std::min<std::size_t>(all_rays.size(), 512));
+  if (rays.empty() || bvh.wide().nodes().empty()) return {};
+  const WideNode& node = bvh.wide().nodes()[0];
+  const TriangleBlock& block = bvh.wide().blocks()[0];
+  std::vector<RobustRay> robust;
+  std::vector<WatertightRay> watertight;
+  for (const Ray& r : rays) {
+    robust.emplace_back(r, bvh.bounds(), coordinate_magnitude(bvh.bounds()));
+    watertight.emplace_back(r);
+  }
+  std::vector<wide_bvh::WideSlab> slabs;
+  std::vector<wide_bvh::WatertightBlock> tests;
+  for (std::size_t i = 0; i < rays.size(); ++i) {
+    slabs.emplace_back(robust[i]);
+    tests.emplace_back(watertight[i]);
+  }
+  unsigned sink = 0;  // keeps the tests from being optimised away
+  alignas(64) float t[kWideWidth], u[kBlockWidth], v[kBlockWidth];
+  Timer node_timer;
+  for (int k = 0; k < kRepeats; ++k)
+    for (std::size_t i = 0; i < rays.size(); ++i)
+      sink += slabs[i].test(node, rays[i].tmin, rays[i].tmax, t);
+  const double node_ms = node_timer.ms();
+  Timer block_timer;
+  for (int k = 0; k < kRepeats; ++k)
+    for (std::size_t i = 0; i < rays.size(); ++i) {
+      unsigned scalar = 0;
+      sink += tests[i].test(block, rays[i].tmin, rays[i].tmax, t, u, v, scalar) + scalar;
+    }
+  const double block_ms = block_timer.ms();
+  const double tests_done = static_cast<double>(kRepeats) * static_cast<double>(rays.size());
+  if (sink == 1) fmt::print(stderr, " ");  // almost never; the compiler cannot know
+  return {node_ms * 1e6 / tests_done, block_ms * 1e6 / tests_done};
+}
+
 // What a ray costs in our wide layout, averaged over every ray of each set (one thread: the
-// counts do not depend on it).
+// counts do not depend on it), and the compute part of it (unit_costs).
 Json traversal_profile(const std::string& builder, std::span<const Triangle> triangles,
                        const std::vector<RaySet>& sets) {
   BuildConfig config;
   config.builder = builder;
   const Bvh bvh = Bvh::build(triangles, builder, BvhBuildOptions::from(config));
   const std::size_t node_bytes = sizeof(WideNode), block_bytes = sizeof(TriangleBlock);
-  Json profile{{"builder", builder},
-               {"wide_nodes", bvh.wide().nodes().size()},
-               {"node_bytes", node_bytes},
-               {"block_bytes", block_bytes}};
+  const UnitCosts unit = unit_costs(bvh, sets.empty() ? std::span<const Ray>{} : sets[0].rays);
+  Json profile{{"builder", builder},           {"wide_nodes", bvh.wide().nodes().size()},
+               {"node_bytes", node_bytes},     {"block_bytes", block_bytes},
+               {"node_test_ns", unit.node_ns}, {"block_test_ns", unit.block_ns}};
   for (const RaySet& set : sets) {
     WideBvhCounts counts;
     for (const Ray& ray : set.rays) bvh.intersect_counted(ray, counts);
@@ -173,7 +218,9 @@ Json traversal_profile(const std::string& builder, std::span<const Triangle> tri
         {"leaves_per_ray", per_ray(counts.leaves)},
         {"blocks_per_ray", per_ray(counts.blocks)},
         {"triangle_lanes_per_ray", per_ray(counts.blocks * kBlockWidth)},
-        {"bytes_per_ray", per_ray(counts.nodes * node_bytes + counts.blocks * block_bytes)}};
+        {"bytes_per_ray", per_ray(counts.nodes * node_bytes + counts.blocks * block_bytes)},
+        {"compute_ns_per_ray",
+         per_ray(counts.nodes) * unit.node_ns + per_ray(counts.blocks) * unit.block_ns}};
   }
   return profile;
 }
@@ -333,8 +380,22 @@ Json run_bvh_bench(const BvhBenchOptions& options) {
     }
     mr["runs"] = per_threads;
     Json profile = Json::array();
-    for (const auto& pair : kPairs)
-      profile.push_back(traversal_profile(pair.first, triangles, sets));
+    for (const auto& pair : kPairs) {
+      Json p = traversal_profile(pair.first, triangles, sets);
+      // Beside it, what a ray took in the single-ray call on one thread, when measured.
+      for (const Json& run : per_threads) {
+        if (run["threads"] != 1) continue;
+        const Json* row = find_row(run["results"], "bvh", pair.first);
+        for (const RaySet& set : sets) {
+          if (!row || !p.contains(set.kind)) continue;
+          const double ns = (*row)["trace"][set.kind]["single"]["ms"].get<double>() * 1e6 /
+                            static_cast<double>(set.rays.size());
+          p[set.kind]["measured_ns_per_ray"] = ns;
+          p[set.kind]["compute_share"] = p[set.kind]["compute_ns_per_ray"].get<double>() / ns;
+        }
+      }
+      profile.push_back(std::move(p));
+    }
     mr["profile"] = profile;
     mesh_reports.push_back(std::move(mr));
   }
@@ -418,21 +479,29 @@ std::string bvh_markdown(const Json& report) {
 
   md +=
       "\n**What a ray costs in our wide layout** (per ray: wide nodes visited, child boxes "
-      "tested, leaves entered, blocks of eight triangles tested, bytes of nodes and blocks "
-      "read).\n\n";
+      "tested, leaves entered, blocks of eight triangles tested, bytes of nodes and blocks read; "
+      "the time of our single-ray call on one thread, and what its node and block tests take "
+      "with their data in the L1 cache: the rest is waiting for memory and the walk's "
+      "control).\n\n";
   md +=
-      "| mesh | builder | kind | nodes | boxes | leaves | blocks | bytes |\n"
-      "|---|---|---|--:|--:|--:|--:|--:|\n";
+      "| mesh | builder | kind | nodes | boxes | leaves | blocks | bytes | ns per ray | of which "
+      "node and block tests |\n|---|---|---|--:|--:|--:|--:|--:|--:|--:|\n";
   for (const Json& mesh : report["meshes"])
     for (const Json& p : mesh["profile"])
       for (const char* kind : {"primary", "diffuse"}) {
         if (!p.contains(kind)) continue;
         const Json& k = p[kind];
-        md += fmt::format("| {} | {} | {} | {:.1f} | {:.1f} | {:.1f} | {:.1f} | {:.0f} |\n",
+        const std::string measured =
+            k.contains("measured_ns_per_ray")
+                ? fmt::format("{:.0f} | {:.0f} ({:.0f}%)", k["measured_ns_per_ray"].get<double>(),
+                              k["compute_ns_per_ray"].get<double>(),
+                              100 * k["compute_share"].get<double>())
+                : fmt::format("– | {:.0f}", k["compute_ns_per_ray"].get<double>());
+        md += fmt::format("| {} | {} | {} | {:.1f} | {:.1f} | {:.1f} | {:.1f} | {:.0f} | {} |\n",
                           mesh["name"].get<std::string>(), p["builder"].get<std::string>(), kind,
                           k["nodes_per_ray"].get<double>(), k["boxes_per_ray"].get<double>(),
                           k["leaves_per_ray"].get<double>(), k["blocks_per_ray"].get<double>(),
-                          k["bytes_per_ray"].get<double>());
+                          k["bytes_per_ray"].get<double>(), measured);
       }
   if (!report["notes"].empty()) {
     md += "\nNotes:\n";

@@ -89,6 +89,7 @@ class WideBvh {
            blocks_.size() * sizeof(TriangleBlock);
   }
   std::span<const WideNode> nodes() const { return nodes_; }
+  std::span<const TriangleBlock> blocks() const { return blocks_; }
 
  private:
   HugePageVector<WideNode> nodes_;        // root at 0
