@@ -11,7 +11,7 @@
 #include "machine.hpp"
 #include "splitray/accel/accel.hpp"
 #include "splitray/accel/bvh/bvh.hpp"
-#include "splitray/accel/bvh/wide_bvh_tests.hpp"
+#include "splitray/accel/bvh/wide_bvh_walk.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/core/parallel.hpp"
 #include "splitray/core/timer.hpp"

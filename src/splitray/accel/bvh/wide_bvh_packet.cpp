@@ -4,7 +4,7 @@
 // one at a time against all rays at once, so the node is fetched once and each box test costs
 // the packet one vector step instead of each ray a share of its own 16-lane test. Every lane
 // computes its ray's slab test with the single-ray walk's float operations
-// (wide_bvh_tests.hpp), keeps its own closest hit and skips a child under the same rule; the
+// (wide_bvh_walk.hpp), keeps its own closest hit and skips a child under the same rule; the
 // leaves' triangles are tested ray by ray with the same watertight test. So each ray's answer
 // is the one intersect(ray) gives. A child is entered for the rays whose boxes tests passed,
 // nearest first for the packet (by the least entry distance among them).
@@ -17,7 +17,7 @@
 #include <bit>
 #include <optional>
 
-#include "splitray/accel/bvh/wide_bvh_tests.hpp"
+#include "splitray/accel/bvh/wide_bvh_walk.hpp"
 
 namespace splitray {
 
