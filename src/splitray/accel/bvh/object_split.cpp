@@ -13,9 +13,8 @@ namespace splitray {
 
 namespace {
 
-// Large spans are binned and partitioned in parallel over chunks of this many references
-// (a chunk's work is a few tens of microseconds, well above a task's overhead).
-constexpr std::size_t kParallelRefs = 32768;
+// Chunks of parallel binning and partitioning: a chunk's work is tens of microseconds, well
+// above a task's overhead.
 constexpr std::size_t kChunkRefs = 16384;
 
 constexpr float kInf = std::numeric_limits<float>::infinity();
@@ -41,7 +40,7 @@ RefBounds ref_bounds(std::span<const BvhRef> refs) {
     for (std::size_t i = begin; i < end; ++i) b.add(refs[i]);
     return b.bounds();
   };
-  if (refs.size() < kParallelRefs) return chunk(0, refs.size());
+  if (refs.size() < kParallelSplitRefs) return chunk(0, refs.size());
   return parallel_reduce(
       refs.size(), kChunkRefs, RefBounds{},
       [&](std::size_t begin, std::size_t end, RefBounds& acc) { acc.extend(chunk(begin, end)); },
@@ -253,7 +252,7 @@ ObjectSplit ObjectBins::best(const CenterBins& map, std::size_t n, const Aabb& b
 ObjectSplit find_object_split(std::span<const BvhRef> refs, const RefBounds& bounds,
                               const BvhBuildOptions& options, std::uint64_t& evals) {
   const CenterBins map(bounds.centers, bin_count(options, refs.size()));
-  if (refs.size() < kParallelRefs) {
+  if (refs.size() < kParallelSplitRefs) {
     ObjectBins bins(map.count);
     bins.add(refs, map);
     return bins.best(map, refs.size(), bounds.box, options, evals);
@@ -267,10 +266,12 @@ ObjectSplit find_object_split(std::span<const BvhRef> refs, const RefBounds& bou
   return bins.best(map, refs.size(), bounds.box, options, evals);
 }
 
-std::size_t partition_refs(std::span<BvhRef> refs, const CenterBins& bins, const ObjectSplit& split,
-                           RefBounds& left, RefBounds& right) {
-  const auto goes_left = [&](const BvhRef& r) { return bins.bin(r, split.axis) <= split.bin; };
-  RefBoundsAccumulator l, r;
+namespace {
+
+// Hoare partition of refs by goes_left, accumulating the bounds of both sides.
+template <class GoesLeft>
+std::size_t partition_span(std::span<BvhRef> refs, const GoesLeft& goes_left,
+                           RefBoundsAccumulator& l, RefBoundsAccumulator& r) {
   std::size_t i = 0, j = refs.size();
   for (;;) {
     while (i < j && goes_left(refs[i])) l.add(refs[i++]);
@@ -280,47 +281,88 @@ std::size_t partition_refs(std::span<BvhRef> refs, const CenterBins& bins, const
     l.add(refs[i++]);
     r.add(refs[--j]);
   }
-  left.extend(l.bounds());
-  right.extend(r.bounds());
   return i;
 }
 
-std::size_t partition_refs_parallel(std::span<const BvhRef> refs, std::span<BvhRef> out,
-                                    const CenterBins& bins, const ObjectSplit& split,
-                                    RefBounds& left, RefBounds& right) {
+// Positions [begin, end) of several ranges, walked as one sequence.
+struct Ranges {
+  std::vector<std::pair<std::size_t, std::size_t>> list;
+  void add(std::size_t begin, std::size_t end) {
+    if (begin < end) list.emplace_back(begin, end);
+  }
+  // Calls f(position) for the items [first, last) of the sequence.
+  template <class F>
+  void walk(std::size_t first, std::size_t last, const F& f) const {
+    std::size_t skipped = 0;
+    for (const auto& [begin, end] : list) {
+      const std::size_t size = end - begin;
+      if (skipped + size > first && skipped < last) {
+        const std::size_t from = std::max(first, skipped) - skipped;
+        const std::size_t to = std::min(last, skipped + size) - skipped;
+        for (std::size_t k = from; k < to; ++k) f(begin + k);
+      }
+      skipped += size;
+      if (skipped >= last) break;
+    }
+  }
+};
+
+}  // namespace
+
+std::size_t partition_refs(std::span<BvhRef> refs, const CenterBins& bins, const ObjectSplit& split,
+                           RefBounds& left, RefBounds& right) {
+  const auto goes_left = [&](const BvhRef& r) { return bins.bin(r, split.axis) <= split.bin; };
+  RefBoundsAccumulator l, r;
+  const std::size_t n_left = partition_span(refs, goes_left, l, r);
+  left.extend(l.bounds());
+  right.extend(r.bounds());
+  return n_left;
+}
+
+std::size_t partition_refs_parallel(std::span<BvhRef> refs, const CenterBins& bins,
+                                    const ObjectSplit& split, RefBounds& left, RefBounds& right) {
   const auto goes_left = [&](const BvhRef& r) { return bins.bin(r, split.axis) <= split.bin; };
   const std::size_t n = refs.size();
   const std::size_t chunks = std::clamp<std::size_t>(n / kChunkRefs, 1, 64);
   const auto chunk_begin = [&](std::size_t c) { return n * c / chunks; };
-  std::vector<std::size_t> left_before(chunks + 1, 0);
+  struct Part {
+    std::size_t n_left = 0;
+    RefBoundsAccumulator left, right;
+  };
+  // Each chunk partitioned in place: [its lefts | its rights].
+  std::vector<Part> parts(chunks);
   parallel_for_each_index(chunks, [&](std::size_t c) {
-    std::size_t count = 0;
-    for (std::size_t i = chunk_begin(c); i < chunk_begin(c + 1); ++i)
-      count += goes_left(refs[i]) ? 1 : 0;
-    left_before[c + 1] = count;
+    Part& p = parts[c];
+    p.n_left = partition_span(refs.subspan(chunk_begin(c), chunk_begin(c + 1) - chunk_begin(c)),
+                              goes_left, p.left, p.right);
   });
-  for (std::size_t c = 0; c < chunks; ++c) left_before[c + 1] += left_before[c];
-  const std::size_t n_left = left_before[chunks];
-  std::vector<std::pair<RefBoundsAccumulator, RefBoundsAccumulator>> sides(chunks);
-  parallel_for_each_index(chunks, [&](std::size_t c) {
-    std::size_t l = left_before[c], r = n_left + chunk_begin(c) - left_before[c];
-    auto& [lb, rb] = sides[c];
-    for (std::size_t i = chunk_begin(c); i < chunk_begin(c + 1); ++i) {
-      if (goes_left(refs[i])) {
-        out[l++] = refs[i];
-        lb.add(refs[i]);
-      } else {
-        out[r++] = refs[i];
-        rb.add(refs[i]);
-      }
-    }
+  std::size_t n_left = 0;
+  for (const Part& p : parts) n_left += p.n_left;
+  // The rights before n_left and the lefts after it are as many; the k-th of the one swaps
+  // with the k-th of the other (positions in order, so the result depends only on the data).
+  Ranges rights_before, lefts_after;
+  for (std::size_t c = 0; c < chunks; ++c) {
+    const std::size_t mid = chunk_begin(c) + parts[c].n_left;
+    rights_before.add(mid, std::min(chunk_begin(c + 1), n_left));
+    lefts_after.add(std::max(chunk_begin(c), n_left), mid);
+  }
+  std::size_t misplaced = 0;
+  for (const auto& [begin, end] : rights_before.list) misplaced += end - begin;
+  const std::size_t pieces = std::clamp<std::size_t>(misplaced / kChunkRefs, 1, 64);
+  parallel_for_each_index(pieces, [&](std::size_t p) {
+    const std::size_t first = misplaced * p / pieces, last = misplaced * (p + 1) / pieces;
+    std::vector<std::size_t> from;
+    from.reserve(last - first);
+    rights_before.walk(first, last, [&](std::size_t i) { from.push_back(i); });
+    std::size_t k = 0;
+    lefts_after.walk(first, last, [&](std::size_t i) { std::swap(refs[from[k++]], refs[i]); });
   });
   for (std::size_t c = 1; c < chunks; ++c) {
-    sides[0].first.add(sides[c].first);
-    sides[0].second.add(sides[c].second);
+    parts[0].left.add(parts[c].left);
+    parts[0].right.add(parts[c].right);
   }
-  left.extend(sides[0].first.bounds());
-  right.extend(sides[0].second.bounds());
+  left.extend(parts[0].left.bounds());
+  right.extend(parts[0].right.bounds());
   return n_left;
 }
 

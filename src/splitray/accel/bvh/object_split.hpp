@@ -144,11 +144,14 @@ ObjectSplit find_object_split(std::span<const BvhRef> refs, const RefBounds& bou
 std::size_t partition_refs(std::span<BvhRef> refs, const CenterBins& bins, const ObjectSplit& split,
                            RefBounds& left, RefBounds& right);
 
-// The same split of a large span, in parallel over fixed chunks: stable, written to `out` (as
-// long as `refs`), so the order never depends on the thread count.
-std::size_t partition_refs_parallel(std::span<const BvhRef> refs, std::span<BvhRef> out,
-                                    const CenterBins& bins, const ObjectSplit& split,
-                                    RefBounds& left, RefBounds& right);
+// The same split of a large span, in place and in parallel over fixed chunks (each chunk
+// partitioned, then the misplaced references swapped in order): the order depends only on
+// the data, never on the thread count.
+std::size_t partition_refs_parallel(std::span<BvhRef> refs, const CenterBins& bins,
+                                    const ObjectSplit& split, RefBounds& left, RefBounds& right);
+
+// Large spans are binned and partitioned in parallel.
+inline constexpr std::size_t kParallelSplitRefs = 32768;
 
 // log2 of the block a leaf is costed by (leaf_block rounded down to a power of two, so that
 // the sweep counts blocks with a shift).
