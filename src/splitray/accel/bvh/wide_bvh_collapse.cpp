@@ -175,6 +175,14 @@ struct Skeleton {
 void fill_node(WideNode& w, const std::uint32_t* source, std::span<const BvhNode> nodes,
                std::span<const std::uint32_t> ids, std::span<const Triangle> triangles,
                std::span<TriangleBlock> blocks) {
+  // The leaves' triangles lie anywhere in the input: ask for all of them before the first
+  // is needed.
+  for (int i = 0; i < kWideWidth; ++i)
+    if (source[i] != kInvalidId && w.count[i] > 0) {
+      const BvhNode& n = nodes[source[i]];
+      for (std::uint32_t r = n.index; r < n.index + n.count(); ++r)
+        __builtin_prefetch(&triangles[ids[r]]);
+    }
   for (int i = 0; i < kWideWidth; ++i) {
     if (source[i] == kInvalidId) {
       set_slot(w, i, Aabb{});
