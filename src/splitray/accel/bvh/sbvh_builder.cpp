@@ -1,7 +1,7 @@
 // Spatial-split BVH (Stich, Friedrich & Dietrich, "Spatial Splits in Bounding Volume
 // Hierarchies", HPG 2009). Every node tries a binned object split; where its two children
-// would overlap by more than alpha times the root's area it also bins the node's box in space,
-// clipping each reference to the bins it crosses, and takes the cheaper of the two. A spatial
+// would overlap by more than alpha times the root's area and sbvh_overlap times the node's, it
+// also bins the node's box in space (spatial_split.hpp) and takes the cheaper of the two. A spatial
 // split sends each straddling reference to both sides, clipped, unless moving it whole to one
 // side is cheaper (reference unsplitting, §4.4). References are split at planes by the
 // conservative clip of accel/triangle_clip.hpp (split_triangle_bounds).
@@ -12,6 +12,7 @@
 
 #include "splitray/accel/bvh/bvh_build.hpp"
 #include "splitray/accel/bvh/object_split.hpp"
+#include "splitray/accel/bvh/spatial_split.hpp"
 #include "splitray/accel/triangle_clip.hpp"
 #include "splitray/core/parallel.hpp"
 
@@ -20,25 +21,7 @@ namespace splitray {
 namespace {
 
 constexpr std::size_t kTaskRefs = 4096;
-constexpr int kMaxSpatialBins = 256;
 constexpr double kGrowth = 2.0;  // at most twice as many references as input
-
-struct SpatialSplit {
-  int axis = -1;
-  float plane = 0;
-  float cost = std::numeric_limits<float>::infinity();
-  Aabb left, right;
-  std::size_t n_left = 0, n_right = 0;
-};
-
-struct SpatialBin {
-  Aabb box;
-  std::uint32_t enter = 0, exit = 0;
-};
-
-// Plane i of an axis binned into `count` bins over [lo, lo + extent]: the one formula used by
-// binning and partitioning.
-inline float bin_plane(float lo, float width, int i) { return lo + static_cast<float>(i) * width; }
 
 class SbvhBuilder {
  public:
@@ -70,58 +53,12 @@ class SbvhBuilder {
         BvhNode::make_leaf(box, first, static_cast<std::uint32_t>(piece.prims.size() - first));
   }
 
-  SpatialSplit find_spatial_split(const std::vector<BvhRef>& refs, const Aabb& box,
-                                  std::uint64_t& evals) const {
-    SpatialSplit best;
-    const int count = std::clamp(
-        std::min(options_.spatial_bins, static_cast<int>(2 * refs.size() + 4)), 2, kMaxSpatialBins);
-    const float parent_area = std::max(box.half_area(), std::numeric_limits<float>::min());
-    thread_local std::vector<SpatialBin> bins(kMaxSpatialBins);  // scratch, reset per axis below
-    thread_local std::vector<Aabb> right_box(kMaxSpatialBins);
-    for (int a = 0; a < 3; ++a) {
-      const float lo = box.lo[a], extent = box.hi[a] - box.lo[a];
-      if (!(extent > 0)) continue;
-      const float width = extent / static_cast<float>(count),
-                  inv = static_cast<float>(count) / extent;
-      for (int i = 0; i < count; ++i) bins[i] = {};
-      for (const BvhRef& r : refs) {
-        const int b0 = std::clamp(static_cast<int>((r.box.lo[a] - lo) * inv), 0, count - 1);
-        const int b1 = std::clamp(static_cast<int>((r.box.hi[a] - lo) * inv), b0, count - 1);
-        ++bins[b0].enter;
-        ++bins[b1].exit;
-        if (b0 == b1) {
-          bins[b0].box.extend(r.box);
-          continue;
-        }
-        Aabb rest = r.box;  // chop the reference into the bins it crosses, plane by plane
-        for (int b = b0; b < b1; ++b) {
-          Aabb part;
-          split_triangle_estimate(tris_[r.prim], rest, a, bin_plane(lo, width, b + 1), part, rest);
-          bins[b].box.extend(part);
-        }
-        bins[b1].box.extend(rest);
-      }
-      Aabb acc;
-      for (int i = count - 1; i > 0; --i) {
-        acc.extend(bins[i].box);
-        right_box[i] = acc;
-      }
-      Aabb left;
-      std::size_t n_left = 0, n_right = refs.size();
-      for (int i = 0; i < count - 1; ++i) {
-        left.extend(bins[i].box);
-        n_left += bins[i].enter;
-        n_right -= bins[i].exit;
-        if (n_left == 0 || n_right == 0) continue;
-        ++evals;
-        const float cost = bvh_split_cost(options_, parent_area, left.half_area(), n_left,
-                                          right_box[i + 1].half_area(), n_right);
-        if (cost < best.cost) {
-          best = {a, bin_plane(lo, width, i + 1), cost, left, right_box[i + 1], n_left, n_right};
-        }
-      }
-    }
-    return best;
+  // Spatial splits are tried where the object split's children overlap by more than alpha of
+  // the root's area and sbvh_overlap of the node's (Embree's second test: most nodes overlap a
+  // little, the search costs tens of times an object split there and rarely wins).
+  bool spatial_may_pay(const ObjectSplit& object, const Aabb& box) const {
+    const float overlap = intersection(object.left, object.right).half_area();
+    return overlap > min_overlap_ && overlap >= options_.sbvh_overlap * box.half_area();
   }
 
   // Distributes refs by the plane; false when one side would stay empty.
@@ -173,9 +110,8 @@ class SbvhBuilder {
 
     const ObjectSplit object = find_object_split(refs, bounds, options_, evals);
     SpatialSplit spatial;
-    if (budget > n &&
-        (object.axis < 0 || intersection(object.left, object.right).half_area() > min_overlap_))
-      spatial = find_spatial_split(refs, bounds.box, evals);
+    if (budget > n && (object.axis < 0 || spatial_may_pay(object, bounds.box)))
+      spatial = find_spatial_split(refs, tris_, bounds.box, options_, evals);
     const float best_cost = std::min(
         object.axis >= 0 ? object.cost : std::numeric_limits<float>::infinity(), spatial.cost);
     const float leaf_cost = bvh_leaf_cost(options_, n);
