@@ -102,12 +102,13 @@ struct ObjectSplit {
   std::size_t n_left = 0;
 };
 
-// Bins for n references: 4 + n / 20 up to options.bins (Embree's rule). Small nodes are
+// Bins for n references: 4 + n / 32 up to options.bins (Embree: 4 + n / 20). Small nodes are
 // most of the nodes, and there the sweep over bins cost more than the binning itself; with
-// 2n + 4 bins (before issue 26) the trees also came out 1-10% worse by the SAH of stats().
+// 2n + 4 bins (before issue 26) the trees also came out 1-10% worse by the SAH cost of
+// stats() on the 15 benchmark meshes (the greedy top-down choice is not the tree's optimum).
 inline int bin_count(const BvhBuildOptions& options, std::size_t n) {
   return static_cast<int>(
-      std::min<std::size_t>(static_cast<std::size_t>(options.bins), 4 + n / 20));
+      std::min<std::size_t>(static_cast<std::size_t>(options.bins), 4 + n / 32));
 }
 
 // Bounds and counts of the references whose centres fall in each bin, on all three axes.
