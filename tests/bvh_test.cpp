@@ -2,11 +2,14 @@
 // conversion: every answer must be exactly brute's (hierarchy_oracle.hpp).
 #include "splitray/accel/bvh/bvh.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <span>
 
 #include "hierarchy_oracle.hpp"
 #include "splitray/accel/bvh/kd_top_bvh.hpp"
+#include "splitray/accel/bvh/object_split.hpp"
 #include "splitray/accel/robust_ray.hpp"
 #include "splitray/core/camera.hpp"
 #include "splitray/core/errors.hpp"
@@ -172,6 +175,57 @@ TEST(Bvh, TreeAndHitsDoNotDependOnThreadCount) {
         << builder;
     expect_same_answers(answers[0], answers[1], ref.rays, "1 vs 2 threads " + builder);
   }
+}
+
+// The dragon's top nodes (32768 references or more) are binned and partitioned in parallel,
+// over chunks that must not depend on the thread count.
+TEST(Bvh, LargeTreesDoNotDependOnThreadCount) {
+  const std::vector<Triangle> tris = load_triangles(vendored_file("dragon_100k/dragon.obj.gz"));
+  for (const std::string builder : {"binned", "sbvh"}) {
+    std::vector<Bvh> trees;
+    for (const int threads : {1, 2}) {
+      ThreadLimit limit(threads);
+      trees.push_back(Bvh::build(tris, builder, BvhBuildOptions{}));
+    }
+    const auto same = [](auto a, auto b) {
+      return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size_bytes()) == 0;
+    };
+    EXPECT_TRUE(same(trees[0].nodes(), trees[1].nodes())) << builder;
+    EXPECT_TRUE(same(trees[0].prim_ids(), trees[1].prim_ids())) << builder;
+    EXPECT_TRUE(same(trees[0].wide().nodes(), trees[1].wide().nodes())) << builder;
+  }
+}
+
+// The parallel partition splits a span as the sequential one does (the same references on
+// each side, the same bounds), only in another order.
+TEST(Bvh, ParallelPartitionMatchesSequential) {
+  const std::vector<Triangle> tris = load_triangles(vendored_file("dragon_100k/dragon.obj.gz"));
+  std::vector<BvhRef> a = make_prim_refs(tris), b = a;
+  const RefBounds bounds = ref_bounds(a);
+  const BvhBuildOptions options;
+  std::uint64_t evals = 0;
+  const ObjectSplit split = find_object_split(a, bounds, options, evals);
+  ASSERT_GE(split.axis, 0);
+  const CenterBins map(bounds.centers, bin_count(options, a.size()));
+  RefBounds la, ra, lb, rb;
+  const std::size_t na = partition_refs(a, map, split, la, ra);
+  const std::size_t nb = partition_refs_parallel(b, map, split, lb, rb);
+  ASSERT_EQ(na, nb);
+  EXPECT_EQ(na, split.n_left);
+  const auto ids = [](std::span<const BvhRef> refs) {
+    std::vector<std::uint32_t> out;
+    for (const BvhRef& r : refs) out.push_back(r.prim);
+    std::sort(out.begin(), out.end());
+    return out;
+  };
+  EXPECT_EQ(ids(std::span(a).first(na)), ids(std::span(b).first(nb)));
+  EXPECT_EQ(ids(std::span(a).subspan(na)), ids(std::span(b).subspan(nb)));
+  for (const auto& [x, y] : {std::pair{la, lb}, std::pair{ra, rb}}) {
+    EXPECT_EQ(std::memcmp(&x.box, &y.box, sizeof(Aabb)), 0);
+    EXPECT_EQ(std::memcmp(&x.centers, &y.centers, sizeof(Aabb)), 0);
+  }
+  EXPECT_EQ(std::memcmp(&la.box, &split.left, sizeof(Aabb)), 0);  // the binning's bounds
+  EXPECT_EQ(std::memcmp(&ra.box, &split.right, sizeof(Aabb)), 0);
 }
 
 TEST(Bvh, WideLayoutKeepsEveryLeafInFullNodes) {

@@ -1,5 +1,6 @@
-// Binned SAH BVH: references partitioned in place, subtrees above a size built as parallel
-// tasks into pieces of their own (the layout never depends on the thread count).
+// Binned SAH BVH: references partitioned in place (large nodes binned and partitioned in
+// parallel), subtrees above a size built as parallel tasks into pieces of their own (the
+// layout never depends on the thread count).
 
 #include <algorithm>
 #include <atomic>
@@ -56,8 +57,9 @@ class BinnedBuilder {
     std::size_t n_left;
     int axis;
     if (split.axis >= 0) {
-      n_left = partition_refs(refs, CenterBins(bounds.centers, bin_count(options_, n)), split, left,
-                              right);
+      const CenterBins map(bounds.centers, bin_count(options_, n));
+      n_left = n >= kParallelSplitRefs ? partition_refs_parallel(refs, map, split, left, right)
+                                       : partition_refs(refs, map, split, left, right);
       axis = split.axis;
     } else {  // all centres coincide: halve the list
       n_left = n / 2;

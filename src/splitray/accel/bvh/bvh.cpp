@@ -57,9 +57,16 @@ Bvh Bvh::from_pieces(std::span<const Triangle> triangles, const BvhPiece& root) 
 }
 
 void Bvh::update_scene_bounds(std::span<const Triangle> triangles) {
+  // Clipped boxes may be smaller than their triangles: the bounds of all triangles, read in
+  // their order (in leaf order the reads missed the cache: 6 ms of a 100 ms build). Min and
+  // max are exact: the same bounds for any split of the work.
   scene_ = nodes_.empty() ? Aabb{} : nodes_[0].box();
-  for (const std::uint32_t id : ids_)
-    scene_.extend(triangles[id].bounds());  // clipped boxes may be smaller
+  scene_.extend(parallel_reduce(
+      triangles.size(), 32768, Aabb{},
+      [&](std::size_t begin, std::size_t end, Aabb& box) {
+        for (std::size_t i = begin; i < end; ++i) box.extend(triangles[i].bounds());
+      },
+      [](Aabb& total, const Aabb& part) { total.extend(part); }));
   magnitude_ = nodes_.empty() ? 0.0f : coordinate_magnitude(scene_);
 }
 

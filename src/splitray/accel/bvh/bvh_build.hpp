@@ -63,9 +63,10 @@ struct BvhBuildOptions {
   int min_leaf = 1;              // nodes with this many references or fewer are leaves
   int max_leaf = 8;              // nodes with more are split whenever they can be
   int bins = 32;                 // SAH bins per axis for object splits
-  int spatial_bins = 16;         // SBVH: bins per axis for spatial splits (as Embree)
+  int spatial_bins = 16;         // SBVH: bins per axis for spatial splits (as Embree), at most
   int max_depth = 64;            // at most 64 (the traversal stack)
   float sbvh_alpha = 1e-5f;      // SBVH: try spatial splits when overlap / root area > alpha
+  float sbvh_overlap = 0.2f;     // SBVH: ... and overlap / node area >= this
 
   static BvhBuildOptions from(const BuildConfig& config);
 };

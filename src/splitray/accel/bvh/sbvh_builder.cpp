@@ -1,17 +1,25 @@
 // Spatial-split BVH (Stich, Friedrich & Dietrich, "Spatial Splits in Bounding Volume
 // Hierarchies", HPG 2009). Every node tries a binned object split; where its two children
-// would overlap by more than alpha times the root's area it also bins the node's box in space,
-// clipping each reference to the bins it crosses, and takes the cheaper of the two. A spatial
-// split sends each straddling reference to both sides, clipped, unless moving it whole to one
-// side is cheaper (reference unsplitting, §4.4). References are split at planes by the
+// would overlap by more than alpha times the root's area and sbvh_overlap times the node's, it
+// also bins the node's box in space (spatial_split.hpp) and takes the cheaper of the two. A
+// spatial split sends each straddling reference to both sides, clipped, unless moving it whole
+// to one side is cheaper (reference unsplitting, §4.4). References are split at planes by the
 // conservative clip of accel/triangle_clip.hpp (split_triangle_bounds).
+//
+// The references live in one array with room for the references spatial splits add (as in
+// Embree's builder): a node's are [begin, end) and it may grow up to cap; a split gives each
+// child a share of the room in proportion to its references, so object splits partition in
+// place and nothing is allocated per node.
 
 #include <algorithm>
 #include <atomic>
 #include <limits>
+#include <memory>
+#include <new>
 
 #include "splitray/accel/bvh/bvh_build.hpp"
 #include "splitray/accel/bvh/object_split.hpp"
+#include "splitray/accel/bvh/spatial_split.hpp"
 #include "splitray/accel/triangle_clip.hpp"
 #include "splitray/core/parallel.hpp"
 
@@ -20,37 +28,28 @@ namespace splitray {
 namespace {
 
 constexpr std::size_t kTaskRefs = 4096;
-constexpr int kMaxSpatialBins = 256;
-constexpr double kGrowth = 2.0;  // at most twice as many references as input
+constexpr double kGrowth = 1.5;  // at most 1.5 times as many references as input
 
-struct SpatialSplit {
-  int axis = -1;
-  float plane = 0;
-  float cost = std::numeric_limits<float>::infinity();
-  Aabb left, right;
-  std::size_t n_left = 0, n_right = 0;
+// A node's references [begin, end) of the array, which it may grow up to cap.
+struct Range {
+  std::size_t begin, end, cap;
+  std::size_t size() const { return end - begin; }
 };
-
-struct SpatialBin {
-  Aabb box;
-  std::uint32_t enter = 0, exit = 0;
-};
-
-// Plane i of an axis binned into `count` bins over [lo, lo + extent]: the one formula used by
-// binning and partitioning.
-inline float bin_plane(float lo, float width, int i) { return lo + static_cast<float>(i) * width; }
 
 class SbvhBuilder {
  public:
-  SbvhBuilder(std::span<const Triangle> triangles, const BvhBuildOptions& options, const Aabb& root)
-      : tris_(triangles), options_(options), min_overlap_(options.sbvh_alpha * root.half_area()) {}
+  SbvhBuilder(std::span<const Triangle> triangles, const BvhBuildOptions& options, const Aabb& root,
+              BvhRef* refs)
+      : tris_(triangles),
+        options_(options),
+        min_overlap_(options.sbvh_alpha * root.half_area()),
+        refs_(refs) {}
 
-  std::unique_ptr<BvhPiece> build_piece(std::vector<BvhRef> refs, const RefBounds& bounds,
-                                        int depth, std::size_t budget) {
+  std::unique_ptr<BvhPiece> build_piece(const Range& range, const RefBounds& bounds, int depth) {
     auto piece = std::make_unique<BvhPiece>();
     piece->nodes.resize(1);
     std::uint64_t evals = 0;
-    build(*piece, 0, refs, bounds, depth, budget, evals);
+    build(*piece, 0, range, bounds, depth, evals);
     evals_ += evals;
     return piece;
   }
@@ -58,11 +57,12 @@ class SbvhBuilder {
   std::uint64_t evals() const { return evals_; }
 
  private:
-  void make_leaf(BvhPiece& piece, std::size_t slot, const std::vector<BvhRef>& refs,
-                 const Aabb& box) {
+  std::span<BvhRef> refs(const Range& r) const { return {refs_ + r.begin, r.size()}; }
+
+  void make_leaf(BvhPiece& piece, std::size_t slot, const Range& range, const Aabb& box) {
     // A triangle split earlier may come back in two parts: reference it once.
     const auto first = static_cast<std::uint32_t>(piece.prims.size());
-    for (const BvhRef& r : refs) piece.prims.push_back(r.prim);
+    for (const BvhRef& r : refs(range)) piece.prims.push_back(r.prim);
     std::sort(piece.prims.begin() + first, piece.prims.end());
     piece.prims.erase(std::unique(piece.prims.begin() + first, piece.prims.end()),
                       piece.prims.end());
@@ -70,74 +70,31 @@ class SbvhBuilder {
         BvhNode::make_leaf(box, first, static_cast<std::uint32_t>(piece.prims.size() - first));
   }
 
-  SpatialSplit find_spatial_split(const std::vector<BvhRef>& refs, const Aabb& box,
-                                  std::uint64_t& evals) const {
-    SpatialSplit best;
-    const int count = std::clamp(
-        std::min(options_.spatial_bins, static_cast<int>(2 * refs.size() + 4)), 2, kMaxSpatialBins);
-    const float parent_area = std::max(box.half_area(), std::numeric_limits<float>::min());
-    thread_local std::vector<SpatialBin> bins(kMaxSpatialBins);  // scratch, reset per axis below
-    thread_local std::vector<Aabb> right_box(kMaxSpatialBins);
-    for (int a = 0; a < 3; ++a) {
-      const float lo = box.lo[a], extent = box.hi[a] - box.lo[a];
-      if (!(extent > 0)) continue;
-      const float width = extent / static_cast<float>(count),
-                  inv = static_cast<float>(count) / extent;
-      for (int i = 0; i < count; ++i) bins[i] = {};
-      for (const BvhRef& r : refs) {
-        const int b0 = std::clamp(static_cast<int>((r.box.lo[a] - lo) * inv), 0, count - 1);
-        const int b1 = std::clamp(static_cast<int>((r.box.hi[a] - lo) * inv), b0, count - 1);
-        ++bins[b0].enter;
-        ++bins[b1].exit;
-        if (b0 == b1) {
-          bins[b0].box.extend(r.box);
-          continue;
-        }
-        Aabb rest = r.box;  // chop the reference into the bins it crosses, plane by plane
-        for (int b = b0; b < b1; ++b) {
-          Aabb part;
-          split_triangle_estimate(tris_[r.prim], rest, a, bin_plane(lo, width, b + 1), part, rest);
-          bins[b].box.extend(part);
-        }
-        bins[b1].box.extend(rest);
-      }
-      Aabb acc;
-      for (int i = count - 1; i > 0; --i) {
-        acc.extend(bins[i].box);
-        right_box[i] = acc;
-      }
-      Aabb left;
-      std::size_t n_left = 0, n_right = refs.size();
-      for (int i = 0; i < count - 1; ++i) {
-        left.extend(bins[i].box);
-        n_left += bins[i].enter;
-        n_right -= bins[i].exit;
-        if (n_left == 0 || n_right == 0) continue;
-        ++evals;
-        const float cost = bvh_split_cost(options_, parent_area, left.half_area(), n_left,
-                                          right_box[i + 1].half_area(), n_right);
-        if (cost < best.cost) {
-          best = {a, bin_plane(lo, width, i + 1), cost, left, right_box[i + 1], n_left, n_right};
-        }
-      }
-    }
-    return best;
+  // Spatial splits are tried where the object split's children overlap by more than alpha of
+  // the root's area and sbvh_overlap of the node's (Embree's second test: most nodes overlap a
+  // little, the search costs tens of times an object split there and rarely wins).
+  bool spatial_may_pay(const ObjectSplit& object, const Aabb& box) const {
+    const float overlap = intersection(object.left, object.right).half_area();
+    return overlap > min_overlap_ && overlap >= options_.sbvh_overlap * box.half_area();
   }
 
-  // Distributes refs by the plane; false when one side would stay empty.
-  bool spatial_partition(const std::vector<BvhRef>& refs, const SpatialSplit& split,
-                         std::vector<BvhRef>& left, std::vector<BvhRef>& right) const {
+  // Distributes refs by the plane, with the bounds of each side; false when one side would
+  // stay empty.
+  bool spatial_partition(std::span<const BvhRef> refs, const SpatialSplit& split,
+                         std::vector<BvhRef>& left, std::vector<BvhRef>& right,
+                         RefBounds& left_bounds, RefBounds& right_bounds) const {
     const int a = split.axis;
     const float p = split.plane;
     Aabb left_box = split.left, right_box = split.right;
     auto n_left = static_cast<float>(split.n_left), n_right = static_cast<float>(split.n_right);
-    left.reserve(split.n_left);
-    right.reserve(split.n_right);
+    RefBoundsAccumulator lb, rb;
+    const auto to_left = [&](const BvhRef& r) { left.push_back(r), lb.add(r); };
+    const auto to_right = [&](const BvhRef& r) { right.push_back(r), rb.add(r); };
     for (const BvhRef& r : refs) {
       if (r.box.hi[a] <= p) {
-        left.push_back(r);
+        to_left(r);
       } else if (r.box.lo[a] >= p) {
-        right.push_back(r);
+        to_right(r);
       } else {
         const float both = left_box.half_area() * n_left + right_box.half_area() * n_right;
         const float all_left =
@@ -145,102 +102,119 @@ class SbvhBuilder {
         const float all_right =
             left_box.half_area() * (n_left - 1) + merge(right_box, r.box).half_area() * n_right;
         if (all_left < both && all_left <= all_right) {
-          left.push_back(r);
+          to_left(r);
           left_box.extend(r.box);
           n_right -= 1;
         } else if (all_right < both) {
-          right.push_back(r);
+          to_right(r);
           right_box.extend(r.box);
           n_left -= 1;
         } else {
-          Aabb lb, rb;
-          split_triangle_bounds(tris_[r.prim], r.box, a, p, lb, rb);
-          if (!lb.empty()) left.push_back({lb, r.prim});
-          if (!rb.empty()) right.push_back({rb, r.prim});
+          Aabb l, h;
+          split_triangle_bounds(tris_[r.prim], r.box, a, p, l, h);
+          if (!l.empty()) to_left({l, r.prim});
+          if (!h.empty()) to_right({h, r.prim});
         }
       }
     }
+    left_bounds = lb.bounds();
+    right_bounds = rb.bounds();
     return !left.empty() && !right.empty();
   }
 
-  // `budget` bounds the references this subtree may hold (spatial splits add some), so that
-  // the total stays within kGrowth times the input and the recursion always shrinks.
-  void build(BvhPiece& piece, std::size_t slot, std::vector<BvhRef>& refs, const RefBounds& bounds,
-             int depth, std::size_t budget, std::uint64_t& evals) {
-    const std::size_t n = refs.size();
-    if (n <= static_cast<std::size_t>(options_.min_leaf) || depth >= options_.max_depth)
-      return make_leaf(piece, slot, refs, bounds.box);
+  // Splits `range` by a spatial split into the children's ranges; false (nothing moved) when
+  // the split would leave a side empty, not shrink, or outgrow the range's room.
+  bool split_spatial(const Range& range, const SpatialSplit& split, Range& left, Range& right,
+                     RefBounds& left_bounds, RefBounds& right_bounds) {
+    // Per-thread scratch, used with no parallel construct running inside (a waiting thread
+    // may run another task on the same scratch).
+    thread_local std::vector<BvhRef> left_refs, right_refs;
+    left_refs.clear();
+    right_refs.clear();
+    const std::size_t n = range.size(), room = range.cap - range.begin;
+    if (!spatial_partition(refs(range), split, left_refs, right_refs, left_bounds, right_bounds) ||
+        left_refs.size() >= n || right_refs.size() >= n ||
+        left_refs.size() + right_refs.size() > room)
+      return false;
+    divide(range, left_refs.size(), right_refs.size(), left, right);
+    std::copy(left_refs.begin(), left_refs.end(), refs_ + left.begin);
+    std::copy(right_refs.begin(), right_refs.end(), refs_ + right.begin);
+    return true;
+  }
 
-    const ObjectSplit object = find_object_split(refs, bounds, options_, evals);
+  // The children's ranges: each gets the room left over in proportion to its references.
+  static void divide(const Range& range, std::size_t n_left, std::size_t n_right, Range& left,
+                     Range& right) {
+    const std::size_t room = range.cap - range.begin, used = n_left + n_right;
+    const std::size_t spare = room - used;
+    const std::size_t left_room =
+        n_left + static_cast<std::size_t>(static_cast<double>(spare) * static_cast<double>(n_left) /
+                                          static_cast<double>(used));
+    left = {range.begin, range.begin + n_left, range.begin + left_room};
+    right = {left.cap, left.cap + n_right, range.cap};
+  }
+
+  void build(BvhPiece& piece, std::size_t slot, const Range& range, const RefBounds& bounds,
+             int depth, std::uint64_t& evals) {
+    const std::size_t n = range.size(), room = range.cap - range.begin;
+    if (n <= static_cast<std::size_t>(options_.min_leaf) || depth >= options_.max_depth)
+      return make_leaf(piece, slot, range, bounds.box);
+
+    const ObjectSplit object = find_object_split(refs(range), bounds, options_, evals);
     SpatialSplit spatial;
-    if (budget > n &&
-        (object.axis < 0 || intersection(object.left, object.right).half_area() > min_overlap_))
-      spatial = find_spatial_split(refs, bounds.box, evals);
+    if (room > n && (object.axis < 0 || spatial_may_pay(object, bounds.box)))
+      spatial = find_spatial_split(refs(range), tris_, bounds.box, options_, evals);
     const float best_cost = std::min(
         object.axis >= 0 ? object.cost : std::numeric_limits<float>::infinity(), spatial.cost);
     const float leaf_cost = bvh_leaf_cost(options_, n);
     if (n <= static_cast<std::size_t>(options_.max_leaf) && !(best_cost < leaf_cost))
-      return make_leaf(piece, slot, refs, bounds.box);
+      return make_leaf(piece, slot, range, bounds.box);
 
-    std::vector<BvhRef> left, right;
+    Range left, right;
     RefBounds left_bounds, right_bounds;
     int axis = 0;
-    bool done = false;
-    if (spatial.axis >= 0 && (object.axis < 0 || spatial.cost < object.cost)) {
-      done = spatial_partition(refs, spatial, left, right) && left.size() < n && right.size() < n &&
-             left.size() + right.size() <= budget;
-      if (done) {
-        axis = spatial.axis;
-        left_bounds = ref_bounds(left);
-        right_bounds = ref_bounds(right);
-      } else {
-        left.clear();
-        right.clear();
-      }
-    }
-    if (!done) {
+    const bool spatial_done = spatial.axis >= 0 &&
+                              (object.axis < 0 || spatial.cost < object.cost) &&
+                              split_spatial(range, spatial, left, right, left_bounds, right_bounds);
+    if (spatial_done) {
+      axis = spatial.axis;
+    } else {
       std::size_t n_left = n / 2;
+      const std::span<BvhRef> node_refs = refs(range);
       if (object.axis >= 0) {
-        n_left = partition_refs(refs, CenterBins(bounds.centers, bin_count(options_, n)), object,
-                                left_bounds, right_bounds);
+        const CenterBins map(bounds.centers, bin_count(options_, n));
+        n_left = n >= kParallelSplitRefs
+                     ? partition_refs_parallel(node_refs, map, object, left_bounds, right_bounds)
+                     : partition_refs(node_refs, map, object, left_bounds, right_bounds);
         axis = object.axis;
-      } else {
+      } else {  // all centres coincide: halve the list
         for (std::size_t i = 0; i < n; ++i)
-          (i < n_left ? left_bounds : right_bounds).extend(refs[i]);
+          (i < n_left ? left_bounds : right_bounds).extend(node_refs[i]);
       }
-      left.assign(refs.begin(), refs.begin() + static_cast<std::ptrdiff_t>(n_left));
-      right.assign(refs.begin() + static_cast<std::ptrdiff_t>(n_left), refs.end());
+      divide(range, n_left, n - n_left, left, right);
+      // The right side moves up by the left's room: its first references go to its end.
+      const std::size_t shift = right.begin - (range.begin + n_left);
+      const std::size_t moved = std::min(shift, right.size());
+      std::copy_n(refs_ + range.begin + n_left, moved, refs_ + right.end - moved);
     }
-    std::vector<BvhRef>().swap(refs);  // release the parent's references before recursing
-    // The spare budget goes to the children in proportion to their references.
-    const std::size_t used = left.size() + right.size(), spare = budget > used ? budget - used : 0;
-    const std::size_t left_budget =
-        left.size() +
-        static_cast<std::size_t>(static_cast<double>(spare) * static_cast<double>(left.size()) /
-                                 static_cast<double>(used));
-    const std::size_t right_budget = std::max(used + spare - left_budget, right.size());
 
     if (slot == 0 && piece.nodes.size() == 1 && n >= kTaskRefs) {
       piece.nodes[0] = BvhNode::make_interior(bounds.box, axis);
-      parallel_invoke(
-          [&] {
-            piece.kids[0] = build_piece(std::move(left), left_bounds, depth + 1, left_budget);
-          },
-          [&] {
-            piece.kids[1] = build_piece(std::move(right), right_bounds, depth + 1, right_budget);
-          });
+      parallel_invoke([&] { piece.kids[0] = build_piece(left, left_bounds, depth + 1); },
+                      [&] { piece.kids[1] = build_piece(right, right_bounds, depth + 1); });
       return;
     }
     const auto pair = static_cast<std::uint32_t>(piece.nodes.size());
     piece.nodes.resize(pair + 2);
     piece.nodes[slot] = BvhNode::make_interior(bounds.box, axis, pair);
-    build(piece, pair, left, left_bounds, depth + 1, left_budget, evals);
-    build(piece, pair + 1, right, right_bounds, depth + 1, right_budget, evals);
+    build(piece, pair, left, left_bounds, depth + 1, evals);
+    build(piece, pair + 1, right, right_bounds, depth + 1, evals);
   }
 
   std::span<const Triangle> tris_;
   const BvhBuildOptions& options_;
   float min_overlap_;
+  BvhRef* refs_;
   std::atomic<std::uint64_t> evals_{0};
 };
 
@@ -249,10 +223,22 @@ class SbvhBuilder {
 BvhBuildResult build_bvh_sbvh(std::span<const Triangle> triangles, std::vector<BvhRef> refs,
                               const BvhBuildOptions& options) {
   const RefBounds bounds = ref_bounds(refs);
-  SbvhBuilder builder(triangles, options, bounds.box);
+  const std::size_t n = refs.size();
+  const auto room = std::max(n, static_cast<std::size_t>(kGrowth * static_cast<double>(n)));
+  // Raw storage (BvhRef is an implicit-lifetime aggregate): the room is written only where
+  // spatial splits use it.
+  const std::unique_ptr<BvhRef, void (*)(BvhRef*)> array(
+      static_cast<BvhRef*>(
+          ::operator new (room * sizeof(BvhRef), std::align_val_t{alignof(BvhRef)})),
+      [](BvhRef* p) { ::operator delete (p, std::align_val_t{alignof(BvhRef)}); });
+  parallel_chunks(n, 16384, [&](std::size_t begin, std::size_t end) {
+    std::copy(refs.begin() + static_cast<std::ptrdiff_t>(begin),
+              refs.begin() + static_cast<std::ptrdiff_t>(end), array.get() + begin);
+  });
+  std::vector<BvhRef>().swap(refs);
+  SbvhBuilder builder(triangles, options, bounds.box, array.get());
   BvhBuildResult result;
-  const std::size_t budget = static_cast<std::size_t>(kGrowth * static_cast<double>(refs.size()));
-  result.root = builder.build_piece(std::move(refs), bounds, 0, budget);
+  result.root = builder.build_piece({0, n, room}, bounds, 0);
   result.cost_evals = builder.evals();
   return result;
 }
