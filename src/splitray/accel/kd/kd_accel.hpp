@@ -68,9 +68,9 @@ class KdAccel final : public Accel {
   static constexpr int kPacketRays = 8;
 #endif
   unsigned intersect_packets(const Ray* rays, Hit* hits) const;
-  // One packet of W::kLanes rays; false, with nothing written, when the rays do not suit one
-  // (direction signs differ, an empty or untraversable ray).
-  template <class W>
+  // One packet of F::kLanes rays (F: simd::Float8 or Float16); false, with nothing written,
+  // when the rays do not suit one (direction signs differ, an empty or untraversable ray).
+  template <class F>
   bool intersect_packet(const Ray* rays, Hit* hits) const;
   // Closest hits (into hits[i]) or occlusion (into occluded[i]) of rays i = which[k], k < n,
   // several walks interleaved (kd_wide_traverse.cpp).
