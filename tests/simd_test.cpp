@@ -1,6 +1,7 @@
 // SIMD code equals the scalar code it repeats, bit for bit: the wrappers of core/simd.hpp lane
 // by lane against the scalar operations (NaN, signed zeros, infinities and denormals included),
-// and the 8-wide watertight test (core/triangle_simd.hpp) against the scalar test.
+// the 8-wide watertight test (core/triangle_simd.hpp) against the scalar test, and the AVX2
+// 7-plane clip of the wide kd walk (accel/kd/kd_wide_clip.hpp) against its portable twin.
 // Builds without the instructions skip the comparisons they cannot make.
 #include "splitray/core/simd.hpp"
 
@@ -12,6 +13,8 @@
 #include <limits>
 #include <vector>
 
+#include "splitray/accel/kd/kd_wide_clip.hpp"
+#include "splitray/accel/robust_ray.hpp"
 #include "splitray/core/random.hpp"
 #include "splitray/core/triangle.hpp"
 #include "splitray/core/triangle_simd.hpp"
@@ -177,6 +180,54 @@ TEST(Simd, Watertight8EqualsTheScalarTest) {
   EXPECT_GT(handed_back, 100);  // the edge and ill-conditioned lanes were exercised
 #else
   GTEST_SKIP() << "built without AVX";
+#endif
+}
+
+// A wide node with random axes, splits (some virtual: +inf), and occupied cells.
+KdWideNode random_node(Pcg32& rng) {
+  KdWideNode node{};
+  node.meta = KdWideNode::kMetaBase;
+  for (int p = 0; p < 7; ++p) {
+    node.meta |= (rng.next_u32() % 3) << (2 * p);
+    node.split[p] = rng.next_u32() % 9 == 0 ? kInf : 4 * rng.next_float() - 2;
+  }
+  node.meta |= (rng.next_u32() & 0xffu) << KdWideNode::kOccupiedShift;
+  for (int c = 0; c < 8; ++c) node.child[c] = static_cast<std::uint32_t>(c);
+  return node;
+}
+
+TEST(Simd, WideKdClipEqualsItsPortableTwin) {
+#if defined(__AVX2__)
+  Pcg32 rng(3);
+  const Aabb root{{-2, -2, -2}, {2, 2, 2}};
+  int entered = 0;
+  for (int round = 0; round < 20000; ++round) {
+    Ray ray;
+    ray.org = {3 * rng.next_float() - 1.5f, 3 * rng.next_float() - 1.5f,
+               3 * rng.next_float() - 1.5f};
+    ray.dir = uniform_sphere(rng.next_float(), rng.next_float());
+    if (round % 4 == 1) ray.dir[round % 3] = round % 8 == 1 ? -0.0f : 0.0f;  // parallel to planes
+    ray.tmin = 0;
+    ray.tmax = kInf;
+    const RobustRay r(ray, root, coordinate_magnitude(root));
+    const RobustRay::Splits s = r.splits(root, ray.tmin, ray.tmax);
+    const float org[3] = {r.org.x, r.org.y, r.org.z}, inv[3] = {r.inv.x, r.inv.y, r.inv.z};
+    const KdWideNode node = random_node(rng);
+    const KdCellClip portable = clip_cells(node, org, inv, s.pad, s.t0, s.t1);
+    const KdCellClip wide =
+        clip_cells(node, _mm256_setr_ps(org[0], org[1], org[2], 0, 0, 0, 0, 0),
+                   _mm256_setr_ps(inv[0], inv[1], inv[2], 1, 1, 1, 1, 1),
+                   _mm256_setr_ps(s.pad[0], s.pad[1], s.pad[2], 0, 0, 0, 0, 0), s.t0, s.t1);
+    ASSERT_EQ(wide.enter, portable.enter) << "round " << round;
+    for (int level = 0; level < 3; ++level) ASSERT_EQ(wide.second[level], portable.second[level]);
+    for (int c = 0; c < 8; ++c)
+      ASSERT_TRUE(same_bits(wide.t0[c], portable.t0[c]) && same_bits(wide.t1[c], portable.t1[c]))
+          << "round " << round << " cell " << c;
+    entered += std::popcount(wide.enter);
+  }
+  EXPECT_GT(entered, 10000);
+#else
+  GTEST_SKIP() << "built without AVX2";
 #endif
 }
 

@@ -4,15 +4,17 @@
 // alternating runs on 5 meshes), else 8. The walk steps plane by plane through the wide
 // layout's nodes (three binary levels per cache line: primary rays 3-16% faster than over
 // the binary nodes on the larger meshes). Each ray keeps its own clipped interval, computed with
-// the single-ray traversal's widening and the same float operations, enters a child exactly when
-// the single-ray traversal would, tests the same leaves with the same exact triangle test and skips
-// a far cell under the same rule, so every ray's hit is the one intersect(ray) returns.
+// the single-ray walk's widening (the split style of robust_ray.hpp) and the same float
+// operations, enters a child exactly when the single-ray walk would, tests the same leaves with
+// the same exact triangle test and skips a far cell under the same rule, so every ray's hit is
+// the one intersect(ray) returns.
 #include <cmath>
 #include <limits>
 #include <optional>
 
 #include "splitray/accel/kd/kd_accel.hpp"
-#include "splitray/accel/kd/kd_ray_setup.hpp"
+#include "splitray/accel/robust_ray.hpp"
+#include "splitray/accel/traversal_stack.hpp"
 #include "splitray/core/simd.hpp"
 
 namespace splitray {
@@ -29,11 +31,11 @@ bool KdAccel::intersect_packet(const Ray* rays, Hit* hits) const {
     for (int a = 0; a < 3; ++a)
       if (std::signbit(rays[l].dir[a]) != std::signbit(rays[0].dir[a])) return false;
   for (int l = 0; l < kLanes; ++l)
-    if (!(rays[l].tmin <= rays[l].tmax) || !KdRaySetup::traversable(rays[l])) return false;
+    if (!(rays[l].tmin <= rays[l].tmax) || !RobustRay::traversable(rays[l])) return false;
 
-  // KdRaySetup for all lanes at once: lane by lane the same float operations in the same
-  // order (min/max and selects are exact; min(x, y) is x < y ? x : y, so std::min(a, b) is
-  // min(b, a)), hence the same intervals as the single-ray call.
+  // RobustRay and its Splits for all lanes at once: lane by lane the same float operations in
+  // the same order (min/max and selects are exact; min(x, y) is x < y ? x : y, so std::min(a, b)
+  // is min(b, a)), hence the same intervals as the single-ray call.
   alignas(64) float lane[8][kLanes];  // org xyz, dir xyz, tmin, tmax
   for (int l = 0; l < kLanes; ++l) {
     for (int a = 0; a < 3; ++a) lane[a][l] = rays[l].org[a], lane[3 + a][l] = rays[l].dir[a];
@@ -96,8 +98,7 @@ bool KdAccel::intersect_packet(const Ray* rays, Hit* hits) const {
     Position pos;
     unsigned mask;
   };
-  PacketEntry stack[3 * kWideDepthLimit + 1];  // one entry per binary level at most
-  int top = 0;
+  TraversalStack<PacketEntry, 3 * kWideDepthLimit + 1> stack;  // an entry per binary level
   Position pos{wide_.root, -1};
   while (active) {
     if (pos.plane >= 0) {
@@ -132,7 +133,7 @@ bool KdAccel::intersect_packet(const Ray* rays, Hit* hits) const {
       const Position first = below_first[a] ? below : above;
       const Position second = below_first[a] ? above : below;
       if (enter_first) {
-        if (enter_second) stack[top++] = {second_t0, t1, second, enter_second};
+        if (enter_second) stack.push({second_t0, t1, second, enter_second});
         pos = first;
         t1 = first_t1;
         active = enter_first;
@@ -158,17 +159,16 @@ bool KdAccel::intersect_packet(const Ray* rays, Hit* hits) const {
         hit_t[l] = hit[l].t;
       }
     }
-    // Next: the nearest pushed cell that some ray still needs (its entry t <= the ray's best).
+    // Next: the nearest pushed cell that some ray still needs (the culled pop of
+    // traversal_stack.hpp, lane by lane: its entry t <= the ray's best).
     active = 0;
-    while (top > 0) {
-      const PacketEntry& entry = stack[--top];
-      active = (entry.t0 <= F::load(hit_t)).bits() & entry.mask;
-      if (active) {
-        pos = entry.pos;
-        t0 = entry.t0;
-        t1 = entry.t1;
-        break;
-      }
+    if (const PacketEntry* entry = stack.pop_until([&](const PacketEntry& e) {
+          active = (e.t0 <= F::load(hit_t)).bits() & e.mask;
+          return active != 0;
+        })) {
+      pos = entry->pos;
+      t0 = entry->t0;
+      t1 = entry->t1;
     }
   }
   for (int l = 0; l < kLanes; ++l) hits[l] = hit[l].found() ? hit[l] : Hit{};
