@@ -94,7 +94,7 @@ bool KdAccel::intersect_packet(const Ray* rays, Hit* hits) const {
     int plane;
   };
   struct PacketEntry {
-    F t0, t1;
+    typename F::Vector t0, t1;  // not F: see core/simd.hpp
     Position pos;
     unsigned mask;
   };
