@@ -8,7 +8,7 @@
 #include "splitray/core/triangle.hpp"
 
 #if defined(__AVX__)
-#include <immintrin.h>
+#include "splitray/core/simd.hpp"
 
 namespace splitray {
 
@@ -16,76 +16,58 @@ class Watertight8 {
  public:
   explicit Watertight8(const WatertightRay& r) : k_{r.kx, r.ky, r.kz} {
     const float o[3] = {r.org.x, r.org.y, r.org.z};
-    for (int i = 0; i < 3; ++i) org_[i] = _mm256_set1_ps(o[k_[i]]);
-    sx_ = _mm256_set1_ps(r.sx);
-    sy_ = _mm256_set1_ps(r.sy);
-    sz_ = _mm256_set1_ps(r.sz);
+    for (int i = 0; i < 3; ++i) org_[i] = simd::Float8::broadcast(o[k_[i]]);
+    sx_ = simd::Float8::broadcast(r.sx);
+    sy_ = simd::Float8::broadcast(r.sy);
+    sz_ = simd::Float8::broadcast(r.sz);
   }
 
-  // load(vertex, axis) -> the eight lanes' coordinate `axis` (0-2) of vertex 0-2. Returns the
-  // lanes of `valid` hit with tmin <= t <= tmax, their t, u and v stored in the arrays;
-  // `scalar` gets the lanes of `valid` the scalar test must decide.
+  // load(vertex, axis) -> the eight lanes' coordinate `axis` (0-2) of vertex 0-2 (a Float8 or
+  // __m256). Returns the lanes of `valid` hit with tmin <= t <= tmax, their t, u and v stored in
+  // the arrays; `scalar` gets the lanes of `valid` the scalar test must decide.
   template <class Load>
   unsigned test(const Load& load, unsigned valid, float tmin, float tmax, float* t_out,
                 float* u_out, float* v_out, unsigned& scalar) const {
-    const auto rel = [&](int vertex, int i) { return _mm256_sub_ps(load(vertex, k_[i]), org_[i]); };
-    const __m256 az0 = rel(0, 2), bz0 = rel(1, 2), cz0 = rel(2, 2);
-    const __m256 ax = _mm256_sub_ps(rel(0, 0), _mm256_mul_ps(sx_, az0));
-    const __m256 ay = _mm256_sub_ps(rel(0, 1), _mm256_mul_ps(sy_, az0));
-    const __m256 bx = _mm256_sub_ps(rel(1, 0), _mm256_mul_ps(sx_, bz0));
-    const __m256 by = _mm256_sub_ps(rel(1, 1), _mm256_mul_ps(sy_, bz0));
-    const __m256 cx = _mm256_sub_ps(rel(2, 0), _mm256_mul_ps(sx_, cz0));
-    const __m256 cy = _mm256_sub_ps(rel(2, 1), _mm256_mul_ps(sy_, cz0));
-    const __m256 u1 = _mm256_mul_ps(cx, by), u2 = _mm256_mul_ps(cy, bx);
-    const __m256 v1 = _mm256_mul_ps(ax, cy), v2 = _mm256_mul_ps(ay, cx);
-    const __m256 w1 = _mm256_mul_ps(bx, ay), w2 = _mm256_mul_ps(by, ax);
-    const __m256 u = _mm256_sub_ps(u1, u2), v = _mm256_sub_ps(v1, v2), w = _mm256_sub_ps(w1, w2);
-    const __m256 zero = _mm256_setzero_ps();
-    const auto any = [&](int predicate_lt_eq_gt) {
-      const auto cmp = [&](__m256 x) {
-        return predicate_lt_eq_gt < 0   ? _mm256_cmp_ps(x, zero, _CMP_LT_OQ)
-               : predicate_lt_eq_gt > 0 ? _mm256_cmp_ps(x, zero, _CMP_GT_OQ)
-                                        : _mm256_cmp_ps(x, zero, _CMP_EQ_OQ);
-      };
-      return static_cast<unsigned>(
-          _mm256_movemask_ps(_mm256_or_ps(_mm256_or_ps(cmp(u), cmp(v)), cmp(w))));
-    };
-    const unsigned edge = any(0) & valid;
+    using simd::Float8;
+    const auto rel = [&](int vertex, int i) { return Float8(load(vertex, k_[i])) - org_[i]; };
+    const Float8 az0 = rel(0, 2), bz0 = rel(1, 2), cz0 = rel(2, 2);
+    const Float8 ax = rel(0, 0) - sx_ * az0, ay = rel(0, 1) - sy_ * az0;
+    const Float8 bx = rel(1, 0) - sx_ * bz0, by = rel(1, 1) - sy_ * bz0;
+    const Float8 cx = rel(2, 0) - sx_ * cz0, cy = rel(2, 1) - sy_ * cz0;
+    const Float8 u1 = cx * by, u2 = cy * bx;
+    const Float8 v1 = ax * cy, v2 = ay * cx;
+    const Float8 w1 = bx * ay, w2 = by * ax;
+    const Float8 u = u1 - u2, v = v1 - v2, w = w1 - w2;
+    const Float8 zero = Float8::zero();
+    const unsigned edge = ((u == zero) | (v == zero) | (w == zero)).bits() & valid;
     scalar = edge;
-    unsigned inside = valid & ~edge & ~(any(-1) & any(1));
+    const unsigned negative = ((u < zero) | (v < zero) | (w < zero)).bits();
+    const unsigned positive = ((u > zero) | (v > zero) | (w > zero)).bits();
+    unsigned inside = valid & ~edge & ~(negative & positive);
     if (!inside) return 0;
-    const __m256 det = _mm256_add_ps(_mm256_add_ps(u, v), w);
-    const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
-    const auto abs = [&](__m256 x) { return _mm256_and_ps(x, abs_mask); };
-    const __m256 magnitude = _mm256_add_ps(
-        _mm256_add_ps(_mm256_add_ps(abs(u1), abs(u2)), _mm256_add_ps(abs(v1), abs(v2))),
-        _mm256_add_ps(abs(w1), abs(w2)));
-    const unsigned ill = static_cast<unsigned>(_mm256_movemask_ps(
-        _mm256_cmp_ps(_mm256_mul_ps(_mm256_set1_ps(8.0f), abs(det)), magnitude, _CMP_LT_OQ)));
+    const Float8 det = u + v + w;
+    const Float8 magnitude = abs(u1) + abs(u2) + (abs(v1) + abs(v2)) + (abs(w1) + abs(w2));
+    const unsigned ill = (Float8::broadcast(8.0f) * abs(det) < magnitude).bits();
     scalar |= ill & inside;
     inside &= ~ill;
     if (!inside) return 0;
-    const __m256 t_scaled = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(u, _mm256_mul_ps(sz_, az0)),
-                                                        _mm256_mul_ps(v, _mm256_mul_ps(sz_, bz0))),
-                                          _mm256_mul_ps(w, _mm256_mul_ps(sz_, cz0)));
-    const __m256 inv_det = _mm256_div_ps(_mm256_set1_ps(1.0f), det);
-    const __m256 t = _mm256_mul_ps(t_scaled, inv_det);
-    const __m256 ok =
-        _mm256_and_ps(_mm256_cmp_ps(det, zero, _CMP_NEQ_UQ),
-                      _mm256_and_ps(_mm256_cmp_ps(t, _mm256_set1_ps(tmin), _CMP_GE_OQ),
-                                    _mm256_cmp_ps(t, _mm256_set1_ps(tmax), _CMP_LE_OQ)));
-    const unsigned hits = static_cast<unsigned>(_mm256_movemask_ps(ok)) & inside;
+    const Float8 t_scaled = u * (sz_ * az0) + v * (sz_ * bz0) + w * (sz_ * cz0);
+    const Float8 inv_det = Float8::broadcast(1.0f) / det;
+    const Float8 t = t_scaled * inv_det;
+    const unsigned hits =
+        ((det != zero) & ((t >= Float8::broadcast(tmin)) & (t <= Float8::broadcast(tmax)))).bits() &
+        inside;
     if (!hits) return 0;
-    _mm256_storeu_ps(t_out, t);
-    _mm256_storeu_ps(u_out, _mm256_mul_ps(v, inv_det));
-    _mm256_storeu_ps(v_out, _mm256_mul_ps(w, inv_det));
+    t.storeu(t_out);
+    (v * inv_det).storeu(u_out);
+    (w * inv_det).storeu(v_out);
     return hits;
   }
 
  private:
-  int k_[3];       // kx, ky, kz
-  __m256 org_[3];  // org_[i] = origin[k_[i]]
-  __m256 sx_, sy_, sz_;
+  int k_[3];             // kx, ky, kz
+  simd::Float8 org_[3];  // org_[i] = origin[k_[i]]
+  simd::Float8 sx_, sy_, sz_;
 };
 
 }  // namespace splitray

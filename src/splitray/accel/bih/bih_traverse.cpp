@@ -1,12 +1,14 @@
 // BIH traversal (paper 004): like a kd-tree, the ray's parameter interval is clipped at the
 // node's planes, giving four cases (only the near child, only the far child, both -- far one
 // pushed --, or neither, which a kd-tree never has) plus the fifth for one-child nodes (the
-// child's interval, or nothing). Planes are conservative (robust_ray.hpp) and a popped node
-// is searched while its entry is not behind the closest hit, so ties resolve as in `brute`.
+// child's interval, or nothing). Planes are conservative (robust_ray.hpp, the box style) and a
+// popped node is searched while its entry is not behind the closest hit (traversal_stack.hpp),
+// so ties resolve as in `brute`.
 #include <algorithm>
 
 #include "splitray/accel/bih/bih.hpp"
 #include "splitray/accel/robust_ray.hpp"
+#include "splitray/accel/traversal_stack.hpp"
 
 namespace splitray {
 
@@ -28,10 +30,9 @@ bool traverse(std::span<const BihNode> nodes, std::span<const Triangle> tris,
   const WatertightRay w(ray);
   struct Entry {
     std::uint32_t node;
-    float tn, tf;
+    float t0, t1;  // entry and exit
   };
-  Entry stack[kStackSize];
-  int sp = 0;
+  TraversalStack<Entry, kStackSize> stack;
   std::uint32_t node = 0;
   for (;;) {
     const BihNode& n = nodes[node];
@@ -53,7 +54,7 @@ bool traverse(std::span<const BihNode> nodes, std::span<const Triangle> tris,
         const bool near_hit = !(tn > t_exit_near);  // NaN (ray in the plane): enter
         const bool far_hit = !(t_entry_far > tf);
         if (near_hit) {
-          if (far_hit) stack[sp++] = {child + 1 - neg, max_keep(tn, t_entry_far), tf};
+          if (far_hit) stack.push({child + 1 - neg, max_keep(tn, t_entry_far), tf});
           node = child + neg;
           tf = min_keep(tf, t_exit_near);
           continue;
@@ -75,16 +76,11 @@ bool traverse(std::span<const BihNode> nodes, std::span<const Triangle> tris,
         }
       }
     }
-    for (;;) {  // pop the next node not behind the closest hit
-      if (sp == 0) return hit.found();
-      const Entry& e = stack[--sp];
-      if (e.tn <= hit.t) {
-        node = e.node;
-        tn = e.tn;
-        tf = std::min(e.tf, hit.t);
-        break;
-      }
-    }
+    const Entry* next = stack.pop_not_behind(hit.t);
+    if (!next) return hit.found();
+    node = next->node;
+    tn = next->t0;
+    tf = std::min(next->t1, hit.t);
   }
 }
 

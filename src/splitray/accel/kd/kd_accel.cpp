@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "splitray/accel/kd/kd_sah.hpp"
+#include "splitray/accel/robust_ray.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/core/parallel.hpp"
 
@@ -110,14 +111,16 @@ KdAccel::KdAccel(KdTree tree, std::span<const Triangle> triangles, const BuildCo
   };
   parallel_invoke([&] { stats_ = kd_tree_stats(tree_, config); },
                   [&] { wide_ = KdWideTree::from(tree_); }, fill_rows);
-  if (stats_.max_depth > kKdDepthLimit)  // the traversal stack holds one entry per level
+  // The walks' stacks hold one entry per binary level (kd packets) and 7 per wide level: every
+  // builder stops at kKdDepthLimit (kd_sah.hpp), which kWideDepthLimit covers.
+  if (stats_.max_depth > kKdDepthLimit)
     throw Error("--accel kd",
                 "the tree is deeper than " + std::to_string(kKdDepthLimit) + " levels");
   if (wide_.max_depth > kWideDepthLimit)
     throw Error("--accel kd", "the tree is too deep for the wide layout's traversal stack");
   stats_.bytes +=
       wide_.nodes.size() * sizeof(KdWideNode) + wide_.leaves.size() * sizeof(KdWideLeaf);
-  coord_scale_ = std::max(max_component(abs(tree_.bounds.lo)), max_component(abs(tree_.bounds.hi)));
+  coord_scale_ = coordinate_magnitude(tree_.bounds);
   stats_.accel = "kd";
   stats_.builder = config.builder;
   stats_.prims = triangles.size();

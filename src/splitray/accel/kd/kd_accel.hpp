@@ -9,8 +9,6 @@
 
 namespace splitray {
 
-struct KdRaySetup;  // kd_ray_setup.hpp
-
 // Builders of --accel kd, the default first.
 std::vector<std::string> kd_builder_names();
 // The builder function of a name; throws Error on an unknown name.
@@ -22,12 +20,13 @@ std::unique_ptr<Accel> make_kd(std::span<const Triangle> triangles, const BuildC
 // clipped against them, so rounding at split planes, rays in or parallel to planes and hits at
 // shared edges and vertices never lose the closest hit: results equal `brute` exactly.
 //
-// For speed (AVX2 builds) the tree is also kept as (1) the leaves' triangles in SIMD rows
-// (kd_leaf.hpp, 8 triangles per exact test) and (2) a wide layout of three binary levels per
-// node (kd_wide.hpp). The batched intersect traces coherent groups of 16 rays (AVX-512;
-// else 8) as packets, plane by plane through the wide nodes (kd_packet.cpp) and the other rays in
-// interleaved wide walks (kd_wide_traverse.cpp). Every path gives the single-ray answer, bit for
-// bit.
+// For traversal the tree is also kept as (1) the leaves' triangles in SIMD rows (kd_leaf.hpp, 8
+// triangles per exact test with AVX) and (2) a wide layout of three binary levels per node
+// (kd_wide.hpp), which every walk uses: a single ray's walk clips the ray against a node's 7
+// planes at once (kd_wide_traverse.cpp; in SIMD with AVX2, else plane by plane with the same
+// float operations). The batched intersect traces coherent groups of 16 rays (AVX-512; else 8)
+// as packets, plane by plane through the wide nodes (kd_packet.cpp, AVX2 builds) and the other
+// rays in interleaved walks. Every path gives the single-ray answer, bit for bit.
 class KdAccel final : public Accel {
  public:
   // `tree` references `triangles` by index. Statistics are taken from the tree; build_ms is
@@ -55,8 +54,10 @@ class KdAccel final : public Accel {
   };
 
  private:
+  // The single-ray walk of the wide layout (kd_wide_traverse.cpp).
   template <bool kAnyHit>
   bool traverse(const Ray& ray, Hit& hit) const;
+  // Rays the walk cannot take (NaN, infinite or zero direction or origin): every leaf tested.
   template <bool kAnyHit>
   bool scan(const Ray& ray, Hit& hit) const;
   // Closest hits of kPacketRays rays (kd_packet.cpp): as one packet of 16 on AVX-512 CPUs,
@@ -68,9 +69,9 @@ class KdAccel final : public Accel {
   static constexpr int kPacketRays = 8;
 #endif
   unsigned intersect_packets(const Ray* rays, Hit* hits) const;
-  // One packet of W::kLanes rays; false, with nothing written, when the rays do not suit one
-  // (direction signs differ, an empty or untraversable ray).
-  template <class W>
+  // One packet of F::kLanes rays (F: simd::Float8 or Float16); false, with nothing written,
+  // when the rays do not suit one (direction signs differ, an empty or untraversable ray).
+  template <class F>
   bool intersect_packet(const Ray* rays, Hit* hits) const;
   // Closest hits (into hits[i]) or occlusion (into occluded[i]) of rays i = which[k], k < n,
   // several walks interleaved (kd_wide_traverse.cpp).
@@ -82,9 +83,6 @@ class KdAccel final : public Accel {
   void walk_each(const Ray* rays, const std::uint32_t* which, std::size_t n, Hit* hits,
                  std::uint8_t* occluded) const;
   WideView wide_view() const;
-  // Single-ray traversal of the wide layout (kd_wide_traverse.cpp), AVX2 builds only.
-  template <bool kAnyHit>
-  bool traverse_wide(const Ray& ray, const KdRaySetup& setup, Hit& hit) const;
 
   KdTree tree_;
   KdWideTree wide_;                 // the same tree, three levels per node, for the walks

@@ -75,7 +75,7 @@ inline bool intersect_leaf(const WatertightRay& r, const float* rows, const std:
   alignas(32) float ts[8], us[8], vs[8];
   for (std::uint32_t base = 0; base < n; base += 8) {
     const float* p = rows + base;
-    const auto load = [&](int k, int c) { return _mm256_loadu_ps(p + (3 * k + c) * stride); };
+    const auto load = [&](int k, int c) { return simd::Float8::loadu(p + (3 * k + c) * stride); };
     const std::uint32_t lanes = n - base < 8 ? n - base : 8;
     unsigned scalar = 0;
     unsigned accept =

@@ -4,91 +4,26 @@
 // alternating runs on 5 meshes), else 8. The walk steps plane by plane through the wide
 // layout's nodes (three binary levels per cache line: primary rays 3-16% faster than over
 // the binary nodes on the larger meshes). Each ray keeps its own clipped interval, computed with
-// the single-ray traversal's widening and the same float operations, enters a child exactly when
-// the single-ray traversal would, tests the same leaves with the same exact triangle test and skips
-// a far cell under the same rule, so every ray's hit is the one intersect(ray) returns.
+// the single-ray walk's widening (the split style of robust_ray.hpp) and the same float
+// operations, enters a child exactly when the single-ray walk would, tests the same leaves with
+// the same exact triangle test and skips a far cell under the same rule, so every ray's hit is
+// the one intersect(ray) returns.
 #include <cmath>
 #include <limits>
 #include <optional>
 
 #include "splitray/accel/kd/kd_accel.hpp"
-#include "splitray/accel/kd/kd_ray_setup.hpp"
-
-#if defined(__AVX2__)
-#include <immintrin.h>
-#endif
+#include "splitray/accel/robust_ray.hpp"
+#include "splitray/accel/traversal_stack.hpp"
+#include "splitray/core/simd.hpp"
 
 namespace splitray {
 
 #if defined(__AVX2__)
 
-namespace {
-
-// The float operations of the packet walk for 8 lanes (AVX2) and 16 lanes (AVX-512), with the
-// same per-lane semantics: min(x, y) and max(x, y) are minps/maxps (x < y ? x : y, resp.
-// x > y ? x : y; the second operand when a NaN is involved), masks have a bit per lane.
-struct Lanes8 {
-  static constexpr int kLanes = 8;
-  using F = __m256;
-  static F set1(float x) { return _mm256_set1_ps(x); }
-  static F load(const float* p) { return _mm256_load_ps(p); }
-  static F add(F a, F b) { return _mm256_add_ps(a, b); }
-  static F sub(F a, F b) { return _mm256_sub_ps(a, b); }
-  static F mul(F a, F b) { return _mm256_mul_ps(a, b); }
-  static F div(F a, F b) { return _mm256_div_ps(a, b); }
-  static F min(F a, F b) { return _mm256_min_ps(a, b); }
-  static F max(F a, F b) { return _mm256_max_ps(a, b); }
-  static F abs(F x) { return _mm256_andnot_ps(_mm256_set1_ps(-0.0f), x); }
-  // |magnitude| with the sign of `sign` (magnitude non-negative).
-  static F with_sign(F magnitude, F sign) {
-    return _mm256_or_ps(magnitude, _mm256_and_ps(_mm256_set1_ps(-0.0f), sign));
-  }
-  // Lane by lane x < y ? b : a.
-  static F select_lt(F x, F y, F a, F b) {
-    return _mm256_blendv_ps(a, b, _mm256_cmp_ps(x, y, _CMP_LT_OQ));
-  }
-  static unsigned lt(F a, F b) {
-    return static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(a, b, _CMP_LT_OQ)));
-  }
-  static unsigned le(F a, F b) {
-    return static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(a, b, _CMP_LE_OQ)));
-  }
-};
-
-#if defined(__AVX512F__)
-struct Lanes16 {
-  static constexpr int kLanes = 16;
-  using F = __m512;
-  static F set1(float x) { return _mm512_set1_ps(x); }
-  static F load(const float* p) { return _mm512_load_ps(p); }
-  static F add(F a, F b) { return _mm512_add_ps(a, b); }
-  static F sub(F a, F b) { return _mm512_sub_ps(a, b); }
-  static F mul(F a, F b) { return _mm512_mul_ps(a, b); }
-  static F div(F a, F b) { return _mm512_div_ps(a, b); }
-  // The zero-masked forms (all lanes kept) avoid a false may-be-uninitialised warning of
-  // GCC 12's plain _mm512_min_ps / _mm512_max_ps.
-  static F min(F a, F b) { return _mm512_maskz_min_ps(0xffff, a, b); }
-  static F max(F a, F b) { return _mm512_maskz_max_ps(0xffff, a, b); }
-  static F abs(F x) { return _mm512_abs_ps(x); }
-  static F with_sign(F magnitude, F sign) {
-    const __m512i bit = _mm512_set1_epi32(static_cast<int>(0x80000000u));
-    return _mm512_castsi512_ps(_mm512_or_si512(_mm512_castps_si512(magnitude),
-                                               _mm512_and_si512(bit, _mm512_castps_si512(sign))));
-  }
-  static F select_lt(F x, F y, F a, F b) {
-    return _mm512_mask_blend_ps(_mm512_cmp_ps_mask(x, y, _CMP_LT_OQ), a, b);
-  }
-  static unsigned lt(F a, F b) { return _mm512_cmp_ps_mask(a, b, _CMP_LT_OQ); }
-  static unsigned le(F a, F b) { return _mm512_cmp_ps_mask(a, b, _CMP_LE_OQ); }
-};
-#endif
-
-}  // namespace
-
-template <class W>
+template <class F>
 bool KdAccel::intersect_packet(const Ray* rays, Hit* hits) const {
-  using F = typename W::F;
-  constexpr int kLanes = W::kLanes;
+  constexpr int kLanes = F::kLanes;
   constexpr unsigned kAll = (1u << kLanes) - 1;
   // Direction signs first (the inverse keeps the sign of each component, zeros included):
   // incoherent groups are turned away before any division.
@@ -96,11 +31,11 @@ bool KdAccel::intersect_packet(const Ray* rays, Hit* hits) const {
     for (int a = 0; a < 3; ++a)
       if (std::signbit(rays[l].dir[a]) != std::signbit(rays[0].dir[a])) return false;
   for (int l = 0; l < kLanes; ++l)
-    if (!(rays[l].tmin <= rays[l].tmax) || !KdRaySetup::traversable(rays[l])) return false;
+    if (!(rays[l].tmin <= rays[l].tmax) || !RobustRay::traversable(rays[l])) return false;
 
-  // KdRaySetup for all lanes at once: lane by lane the same float operations in the same
-  // order (min/max and blends are exact; W::min(x, y) is x < y ? x : y, so std::min(a, b) is
-  // W::min(b, a)), hence the same intervals as the single-ray call.
+  // RobustRay and its Splits for all lanes at once: lane by lane the same float operations in
+  // the same order (min/max and selects are exact; min(x, y) is x < y ? x : y, so std::min(a, b)
+  // is min(b, a)), hence the same intervals as the single-ray call.
   alignas(64) float lane[8][kLanes];  // org xyz, dir xyz, tmin, tmax
   for (int l = 0; l < kLanes; ++l) {
     for (int a = 0; a < 3; ++a) lane[a][l] = rays[l].org[a], lane[3 + a][l] = rays[l].dir[a];
@@ -108,36 +43,35 @@ bool KdAccel::intersect_packet(const Ray* rays, Hit* hits) const {
     lane[7][l] = rays[l].tmax;
   }
   F org[3], dir[3], inv[3], pad[3];
-  for (int a = 0; a < 3; ++a) org[a] = W::load(lane[a]), dir[a] = W::load(lane[3 + a]);
-  const F max_dir = W::max(W::max(W::abs(dir[2]), W::abs(dir[1])), W::abs(dir[0]));
+  for (int a = 0; a < 3; ++a) org[a] = F::load(lane[a]), dir[a] = F::load(lane[3 + a]);
+  const F max_dir = max(max(abs(dir[2]), abs(dir[1])), abs(dir[0]));
   const F tiny =
-      W::max(W::set1(std::numeric_limits<float>::min()), W::mul(max_dir, W::set1(0x1p-40f)));
+      max(F::broadcast(std::numeric_limits<float>::min()), max_dir * F::broadcast(0x1p-40f));
   F far[3];
   for (int a = 0; a < 3; ++a) {
-    const F to_lo = W::abs(W::sub(org[a], W::set1(tree_.bounds.lo[a])));
-    const F to_hi = W::abs(W::sub(org[a], W::set1(tree_.bounds.hi[a])));
-    far[a] = W::max(to_hi, to_lo);
+    const F to_lo = abs(org[a] - F::broadcast(tree_.bounds.lo[a]));
+    const F to_hi = abs(org[a] - F::broadcast(tree_.bounds.hi[a]));
+    far[a] = max(to_hi, to_lo);
   }
-  const F delta = W::mul(W::set1(0x1p-18f),
-                         W::add(W::add(W::add(far[0], far[1]), far[2]), W::set1(coord_scale_)));
-  const F pad_t = W::div(delta, max_dir);
-  F t0 = W::load(lane[6]), t1 = W::load(lane[7]);
+  const F delta = F::broadcast(0x1p-18f) * (far[0] + far[1] + far[2] + F::broadcast(coord_scale_));
+  const F pad_t = delta / max_dir;
+  F t0 = F::load(lane[6]), t1 = F::load(lane[7]);
   bool below_first[3];
   for (int a = 0; a < 3; ++a) {
-    const F d = W::select_lt(W::abs(dir[a]), tiny, dir[a], W::with_sign(tiny, dir[a]));
-    inv[a] = W::div(W::set1(1.0f), d);
-    pad[a] = W::add(W::mul(delta, W::abs(inv[a])), pad_t);
-    const F ta = W::mul(W::sub(W::set1(tree_.bounds.lo[a]), org[a]), inv[a]);
-    const F tb = W::mul(W::sub(W::set1(tree_.bounds.hi[a]), org[a]), inv[a]);
-    const F enter = W::sub(W::min(tb, ta), pad[a]);
-    const F leave = W::add(W::max(tb, ta), pad[a]);
-    t0 = W::max(enter, t0);  // if (enter > t0) t0 = enter
-    t1 = W::min(leave, t1);  // if (leave < t1) t1 = leave
-    const unsigned negative = W::lt(inv[a], W::set1(0.0f));
+    const F d = select(abs(dir[a]) < tiny, with_sign(tiny, dir[a]), dir[a]);
+    inv[a] = F::broadcast(1.0f) / d;
+    pad[a] = delta * abs(inv[a]) + pad_t;
+    const F ta = (F::broadcast(tree_.bounds.lo[a]) - org[a]) * inv[a];
+    const F tb = (F::broadcast(tree_.bounds.hi[a]) - org[a]) * inv[a];
+    const F enter = min(tb, ta) - pad[a];
+    const F leave = max(tb, ta) + pad[a];
+    t0 = max(enter, t0);  // if (enter > t0) t0 = enter
+    t1 = min(leave, t1);  // if (leave < t1) t1 = leave
+    const unsigned negative = (inv[a] < F::zero()).bits();
     if (negative != 0 && negative != kAll) return false;
     below_first[a] = negative == 0;
   }
-  unsigned active = W::le(t0, t1);
+  unsigned active = (t0 <= t1).bits();
   alignas(64) float hit_t[kLanes];
   Hit hit[kLanes];
   for (int l = 0; l < kLanes; ++l) hit[l].t = hit_t[l] = rays[l].tmax;
@@ -160,23 +94,22 @@ bool KdAccel::intersect_packet(const Ray* rays, Hit* hits) const {
     int plane;
   };
   struct PacketEntry {
-    F t0, t1;
+    typename F::Vector t0, t1;  // not F: see core/simd.hpp
     Position pos;
     unsigned mask;
   };
-  PacketEntry stack[3 * kWideDepthLimit + 1];  // one entry per binary level at most
-  int top = 0;
+  TraversalStack<PacketEntry, 3 * kWideDepthLimit + 1> stack;  // an entry per binary level
   Position pos{wide_.root, -1};
   while (active) {
     if (pos.plane >= 0) {
       const KdWideNode& node = nodes[pos.at];
       const int p = pos.plane, a = node.axis(p);
       // The single-ray step in every lane: t_split, its widened bounds, the children's ranges
-      // (W::min(x, y) is x < y ? x : y, as the scalar code).
-      const F t_split = W::mul(W::sub(W::set1(node.split[p]), org[a]), inv[a]);
-      const F hi = W::add(t_split, pad[a]), lo = W::sub(t_split, pad[a]);
-      const F first_t1 = W::min(hi, t1);
-      const F second_t0 = W::max(lo, t0);
+      // (min(x, y) is x < y ? x : y, as the scalar code).
+      const F t_split = (F::broadcast(node.split[p]) - org[a]) * inv[a];
+      const F hi = t_split + pad[a], lo = t_split - pad[a];
+      const F first_t1 = min(hi, t1);
+      const F second_t0 = max(lo, t0);
       Position below, above;
       bool below_full, above_full;  // the side holds a leaf or node
       if (p < 3) {
@@ -195,12 +128,12 @@ bool KdAccel::intersect_packet(const Ray* rays, Hit* hits) const {
       }
       const bool first_full = below_first[a] ? below_full : above_full;
       const bool second_full = below_first[a] ? above_full : below_full;
-      const unsigned enter_first = first_full ? W::le(t0, first_t1) & active : 0u;
-      const unsigned enter_second = second_full ? W::le(second_t0, t1) & active : 0u;
+      const unsigned enter_first = first_full ? (t0 <= first_t1).bits() & active : 0u;
+      const unsigned enter_second = second_full ? (second_t0 <= t1).bits() & active : 0u;
       const Position first = below_first[a] ? below : above;
       const Position second = below_first[a] ? above : below;
       if (enter_first) {
-        if (enter_second) stack[top++] = {second_t0, t1, second, enter_second};
+        if (enter_second) stack.push({second_t0, t1, second, enter_second});
         pos = first;
         t1 = first_t1;
         active = enter_first;
@@ -226,17 +159,16 @@ bool KdAccel::intersect_packet(const Ray* rays, Hit* hits) const {
         hit_t[l] = hit[l].t;
       }
     }
-    // Next: the nearest pushed cell that some ray still needs (its entry t <= the ray's best).
+    // Next: the nearest pushed cell that some ray still needs (the culled pop of
+    // traversal_stack.hpp, lane by lane: its entry t <= the ray's best).
     active = 0;
-    while (top > 0) {
-      const PacketEntry& entry = stack[--top];
-      active = W::le(entry.t0, W::load(hit_t)) & entry.mask;
-      if (active) {
-        pos = entry.pos;
-        t0 = entry.t0;
-        t1 = entry.t1;
-        break;
-      }
+    if (const PacketEntry* entry = stack.pop_until([&](const PacketEntry& e) {
+          active = (e.t0 <= F::load(hit_t)).bits() & e.mask;
+          return active != 0;
+        })) {
+      pos = entry->pos;
+      t0 = entry->t0;
+      t1 = entry->t1;
     }
   }
   for (int l = 0; l < kLanes; ++l) hits[l] = hit[l].found() ? hit[l] : Hit{};
@@ -245,11 +177,11 @@ bool KdAccel::intersect_packet(const Ray* rays, Hit* hits) const {
 
 unsigned KdAccel::intersect_packets(const Ray* rays, Hit* hits) const {
 #if defined(__AVX512F__)
-  if (intersect_packet<Lanes16>(rays, hits)) return (1u << (kPacketRays / 8)) - 1;
+  if (intersect_packet<simd::Float16>(rays, hits)) return (1u << (kPacketRays / 8)) - 1;
 #endif
   unsigned done = 0;
   for (std::ptrdiff_t group = 0; group < kPacketRays / 8; ++group)
-    if (intersect_packet<Lanes8>(rays + 8 * group, hits + 8 * group)) done |= 1u << group;
+    if (intersect_packet<simd::Float8>(rays + 8 * group, hits + 8 * group)) done |= 1u << group;
   return done;
 }
 

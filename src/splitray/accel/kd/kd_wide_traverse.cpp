@@ -1,23 +1,31 @@
-// Single-ray traversal of the wide layout (kd_wide.hpp): one step clips the ray's interval
-// against the 7 planes of a node in SIMD and visits the occupied cells it reaches front to
-// back. Each cell's interval is the binary traversal's (kd_traverse.cpp): the same
-// t_split = (split - org) * inv, the same widening, and the same min/max compositions level by
-// level (min and max are exact), so the two visit the same leaves with the same intervals and
-// skip a far cell under the same rule; the answer is brute's.
+// The kd-tree's walk: front to back over the wide layout (kd_wide.hpp), exact against `brute`.
 //
-// The walk is a resumable state machine (one node or leaf per step), so that the batched call
-// can interleave the walks of several rays: their memory accesses, which dominate the time of
-// incoherent rays, then overlap instead of waiting one after the other.
+// Why it never loses the closest hit: every leaf test uses the watertight triangle test with
+// [ray.tmin, best t], so whatever a leaf reports is what brute computes for that triangle, and
+// the answer is the smallest (t, id) among the triangles tested. It is brute's answer as long
+// as no triangle that could beat it is skipped. Every leaf holds each triangle that reaches
+// its cell: the builders' perfect-split clipping is conservative (accel/triangle_clip.hpp),
+// which no margin here could make up for, since half an ulp across a plane nearly parallel
+// to a triangle moves its crossing far along the plane. What is left is rounding in the
+// traversal and in the triangle test: when the ray is clipped against split planes (and rays
+// in or parallel to a plane), and in the test's t, which may place a hit slightly outside the
+// cell it lies in (never far: the test decides slivers and degenerate triangles in double,
+// core/triangle.hpp). So every plane is widened by the split style of robust_ray.hpp (a bound
+// far above float rounding, far below any cell that matters for speed), and a far cell is
+// skipped only when its widened entry t exceeds the best t (traversal_stack.hpp).
+//
+// One step clips the ray's interval against the 7 planes of a node (kd_wide_clip.hpp: the
+// binary tree's clipping, operation for operation, level by level) and visits the occupied
+// cells it reaches front to back. The walk is a resumable state machine (one node or leaf per
+// step), so that the batched call can interleave the walks of several rays: their memory
+// accesses, which dominate the time of incoherent rays, then overlap instead of waiting one
+// after the other.
 #include "splitray/accel/kd/kd_accel.hpp"
-#include "splitray/accel/kd/kd_ray_setup.hpp"
-
-#if defined(__AVX2__)
-#include <immintrin.h>
-#endif
+#include "splitray/accel/kd/kd_wide_clip.hpp"
+#include "splitray/accel/robust_ray.hpp"
+#include "splitray/accel/traversal_stack.hpp"
 
 namespace splitray {
-
-#if defined(__AVX2__)
 
 namespace {
 
@@ -28,22 +36,44 @@ struct CellEntry {
 
 constexpr int kStackSize = 7 * KdAccel::kWideDepthLimit + 1;
 
+// Asks for the cache line at p (prefetcht0).
+inline void prefetch(const void* p) { __builtin_prefetch(p, 0, 3); }
+
+// The per-axis constants of a ray as the 7-plane clip takes them.
+struct WideRay {
+#if defined(__AVX2__)
+  simd::Float8 org, inv, pad;
+  WideRay(const RobustRay& r, const RobustRay::Splits& s)
+      : org(_mm256_setr_ps(r.org.x, r.org.y, r.org.z, 0, 0, 0, 0, 0)),
+        inv(_mm256_setr_ps(r.inv.x, r.inv.y, r.inv.z, 1, 1, 1, 1, 1)),
+        pad(_mm256_setr_ps(s.pad[0], s.pad[1], s.pad[2], 0, 0, 0, 0, 0)) {}
+#else
+  float org[3], inv[3], pad[3];
+  WideRay(const RobustRay& r, const RobustRay::Splits& s)
+      : org{r.org.x, r.org.y, r.org.z},
+        inv{r.inv.x, r.inv.y, r.inv.z},
+        pad{s.pad[0], s.pad[1], s.pad[2]} {}
+#endif
+  KdCellClip clip(const KdWideNode& node, float t0, float t1) const {
+    return clip_cells(node, org, inv, pad, t0, t1);
+  }
+};
+
 template <bool kAnyHit, bool kInterleaved>
 class WideWalk {
  public:
-  // `hit.t` must hold ray.tmax.
-  WideWalk(const KdAccel::WideView& view, const Ray& ray, const KdRaySetup& setup, Hit& hit)
+  // `hit.t` must hold ray.tmax; `s` is r.splits(root cell, ray.tmin, ray.tmax), not empty.
+  WideWalk(const KdAccel::WideView& view, const Ray& ray, const RobustRay& r,
+           const RobustRay::Splits& s, Hit& hit)
       : view_(view),
         wray_(ray),
         tmin_(ray.tmin),
         tmax_(ray.tmax),
-        org8_(_mm256_setr_ps(setup.org[0], setup.org[1], setup.org[2], 0, 0, 0, 0, 0)),
-        inv8_(_mm256_setr_ps(setup.inv[0], setup.inv[1], setup.inv[2], 1, 1, 1, 1, 1)),
-        pad8_(_mm256_setr_ps(setup.pad[0], setup.pad[1], setup.pad[2], 0, 0, 0, 0, 0)),
+        ray_(r, s),
         hit_(hit),
         ref_(view.root),
-        t0_(setup.t0),
-        t1_(setup.t1) {}
+        t0_(s.t0),
+        t1_(s.t1) {}
 
   bool result() const { return result_; }
 
@@ -62,7 +92,7 @@ class WideWalk {
         const char* end = rows + 9 * sizeof(float) * std::size_t{leaf_.count};
         for (const char* line = rows; line < end && line < rows + std::ptrdiff_t{512};
              line += 64)  // 8 lines
-          _mm_prefetch(line, _MM_HINT_T0);
+          prefetch(line);
         leaf_ready_ = true;
         return false;
       }
@@ -73,14 +103,11 @@ class WideWalk {
           kAnyHit)
         return finish(true);
     }
-    while (top_ > 0) {
-      const CellEntry& entry = stack_[--top_];
-      if (kAnyHit || entry.t0 <= hit_.t) {
-        ref_ = entry.ref;
-        t0_ = entry.t0;
-        t1_ = entry.t1;
-        return next();
-      }
+    if (const CellEntry* entry = stack_.pop_not_behind(hit_.t)) {
+      ref_ = entry->ref;
+      t0_ = entry->t0;
+      t1_ = entry->t1;
+      return next();
     }
     return finish(!kAnyHit && hit_.found());
   }
@@ -91,16 +118,11 @@ class WideWalk {
     if constexpr (kInterleaved) {
       if (ref_ & KdWideTree::kLeafRef) {
         if ((ref_ & KdWideTree::kIndirect) != KdWideTree::kIndirect)  // the rows themselves
-          _mm_prefetch(reinterpret_cast<const char*>(view_.rows->leaf(
-                           (ref_ & ~KdWideTree::kLeafRef) >> KdWideTree::kCountBits)),
-                       _MM_HINT_T0);
+          prefetch(view_.rows->leaf((ref_ & ~KdWideTree::kLeafRef) >> KdWideTree::kCountBits));
         else
-          _mm_prefetch(
-              reinterpret_cast<const char*>(
-                  view_.leaves + ((ref_ & ~KdWideTree::kLeafRef) >> KdWideTree::kCountBits)),
-              _MM_HINT_T0);
+          prefetch(view_.leaves + ((ref_ & ~KdWideTree::kLeafRef) >> KdWideTree::kCountBits));
       } else
-        _mm_prefetch(reinterpret_cast<const char*>(view_.nodes + ref_), _MM_HINT_T0);
+        prefetch(view_.nodes + ref_);
     }
     return false;
   }
@@ -112,50 +134,14 @@ class WideWalk {
 
   // Clips the ray to the node's cells; false when it reaches none.
   bool enter(const KdWideNode& node) {
-    // Planes per cell at levels 1 and 2 (level 0: plane 0 everywhere), and the cells above
-    // the plane of each level.
-    const __m256i level0 = _mm256_setzero_si256();
-    const __m256i level1 = _mm256_setr_epi32(1, 1, 1, 1, 2, 2, 2, 2);
-    const __m256i level2 = _mm256_setr_epi32(3, 3, 4, 4, 5, 5, 6, 6);
-    const __m256 above0 = _mm256_castsi256_ps(_mm256_setr_epi32(0, 0, 0, 0, -1, -1, -1, -1));
-    const __m256 above1 = _mm256_castsi256_ps(_mm256_setr_epi32(0, 0, -1, -1, 0, 0, -1, -1));
-    const __m256 above2 = _mm256_castsi256_ps(_mm256_setr_epi32(0, -1, 0, -1, 0, -1, 0, -1));
-    const __m256i axis_shift = _mm256_setr_epi32(0, 2, 4, 6, 8, 10, 12, 0);
-
-    const __m256 split = _mm256_load_ps(node.split);  // lane 7: meta, a normal float
-    const __m256i axis = _mm256_and_si256(
-        _mm256_srlv_epi32(_mm256_set1_epi32(static_cast<int>(node.meta)), axis_shift),
-        _mm256_set1_epi32(3));
-    const __m256 inv = _mm256_permutevar8x32_ps(inv8_, axis);
-    const __m256 pad = _mm256_permutevar8x32_ps(pad8_, axis);
-    const __m256 t_split =
-        _mm256_mul_ps(_mm256_sub_ps(split, _mm256_permutevar8x32_ps(org8_, axis)), inv);
-    const __m256 hi = _mm256_add_ps(t_split, pad), lo = _mm256_sub_ps(t_split, pad);
-    const __m256 negative = _mm256_cmp_ps(inv, _mm256_setzero_ps(), _CMP_LT_OQ);
-    __m256 lower = _mm256_set1_ps(t0_), upper = _mm256_set1_ps(t1_);
-    // Level by level: the cell on the ray's first side of the plane gets min(hi, t1), the
-    // other max(lo, t0), exactly as in the binary step (_mm256_min_ps(x, y) is x < y ? x : y).
-    const auto clip = [&](__m256i planes, __m256 above) {
-      const __m256 second = _mm256_xor_ps(above, _mm256_permutevar8x32_ps(negative, planes));
-      const __m256 h = _mm256_permutevar8x32_ps(hi, planes);
-      const __m256 l = _mm256_permutevar8x32_ps(lo, planes);
-      upper = _mm256_blendv_ps(_mm256_min_ps(h, upper), upper, second);
-      lower = _mm256_blendv_ps(lower, _mm256_max_ps(l, lower), second);
-      return static_cast<unsigned>(_mm256_movemask_ps(second));
-    };
-    const unsigned s0 = clip(level0, above0), s1 = clip(level1, above1), s2 = clip(level2, above2);
-    const unsigned enter =
-        static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(lower, upper, _CMP_LE_OQ))) &
-        node.occupied();
+    const KdCellClip cells = ray_.clip(node, t0_, t1_);
+    const unsigned enter = cells.enter;
     if (!enter) return false;
-    alignas(32) float lo_t[8], hi_t[8];
-    _mm256_store_ps(lo_t, lower);
-    _mm256_store_ps(hi_t, upper);
     if ((enter & (enter - 1)) == 0) {  // one cell (the common case): no order to find
       const unsigned c = static_cast<unsigned>(__builtin_ctz(enter));
       ref_ = node.child[c];
-      t0_ = lo_t[c];
-      t1_ = hi_t[c];
+      t0_ = cells.t0[c];
+      t1_ = cells.t1[c];
       return true;
     }
     // The binary traversal's order: first sides first, level by level.
@@ -163,7 +149,8 @@ class WideWalk {
     unsigned order = 0;
     for (unsigned m = enter; m; m &= m - 1) {
       const unsigned c = static_cast<unsigned>(__builtin_ctz(m));
-      const unsigned key = ((s0 >> c) & 1u) << 2 | ((s1 >> c) & 1u) << 1 | ((s2 >> c) & 1u);
+      const unsigned key = ((cells.second[0] >> c) & 1u) << 2 | ((cells.second[1] >> c) & 1u) << 1 |
+                           ((cells.second[2] >> c) & 1u);
       cell_of[key] = static_cast<std::uint8_t>(c);
       order |= 1u << key;
     }
@@ -171,28 +158,27 @@ class WideWalk {
     for (unsigned m = order & ~(1u << first); m;) {  // the others, farthest pushed first
       const unsigned key = 31u - static_cast<unsigned>(__builtin_clz(m));
       const unsigned c = cell_of[key];
-      stack_[top_++] = {node.child[c], lo_t[c], hi_t[c]};
+      stack_.push({node.child[c], cells.t0[c], cells.t1[c]});
       m &= ~(1u << key);
     }
     const unsigned c = cell_of[first];
     ref_ = node.child[c];
-    t0_ = lo_t[c];
-    t1_ = hi_t[c];
+    t0_ = cells.t0[c];
+    t1_ = cells.t1[c];
     return true;
   }
 
   const KdAccel::WideView& view_;
   WatertightRay wray_;
   float tmin_, tmax_;
-  __m256 org8_, inv8_, pad8_;
+  WideRay ray_;
   Hit& hit_;
   std::uint32_t ref_;
   float t0_, t1_;
-  int top_ = 0;
   bool result_ = false;
   bool leaf_ready_ = false;  // interleaved: leaf_ holds the range of the leaf ref_
   KdWideLeaf leaf_{};
-  CellEntry stack_[kStackSize];
+  TraversalStack<CellEntry, kStackSize> stack_;
 };
 
 }  // namespace
@@ -202,17 +188,39 @@ KdAccel::WideView KdAccel::wide_view() const {
           wide_.root};
 }
 
+// Rays with a NaN, infinite or zero direction or origin: test every reference, as brute does.
 template <bool kAnyHit>
-bool KdAccel::traverse_wide(const Ray& ray, const KdRaySetup& setup, Hit& hit) const {
-  const WideView view = wide_view();
-  WideWalk<kAnyHit, false> walk(view, ray, setup, hit);
+bool KdAccel::scan(const Ray& ray, Hit& hit) const {
+  const WatertightRay wray(ray);
+  const std::uint32_t* ids = tree_.prim_ids.data();
+  for (const KdNode& node : tree_.nodes) {
+    if (!node.is_leaf() || node.count() == 0) continue;
+    const std::uint32_t first = node.prim_offset;
+    if (intersect_leaf<kAnyHit>(wray, leaf_triangles_.leaf(first), ids + first, node.count(),
+                                ray.tmin, ray.tmax, hit) &&
+        kAnyHit)
+      return true;
+  }
+  return hit.found();
+}
+
+template <bool kAnyHit>
+bool KdAccel::traverse(const Ray& ray, Hit& hit) const {
+  hit.t = ray.tmax;
+  if (!(ray.tmin <= ray.tmax)) return false;  // no t qualifies (also NaN bounds)
+  if (!RobustRay::traversable(ray)) return scan<kAnyHit>(ray, hit);
+  const RobustRay r(ray, tree_.bounds, coord_scale_);
+  const RobustRay::Splits s = r.splits(tree_.bounds, ray.tmin, ray.tmax);
+  if (!(s.t0 <= s.t1)) return false;
+  const WideView view = wide_view();  // the walk keeps a reference
+  WideWalk<kAnyHit, false> walk(view, ray, r, s, hit);
   while (!walk.step()) {
   }
   return walk.result();
 }
 
-template bool KdAccel::traverse_wide<false>(const Ray&, const KdRaySetup&, Hit&) const;
-template bool KdAccel::traverse_wide<true>(const Ray&, const KdRaySetup&, Hit&) const;
+template bool KdAccel::traverse<false>(const Ray&, Hit&) const;
+template bool KdAccel::traverse<true>(const Ray&, Hit&) const;
 
 template <bool kAnyHit>
 void KdAccel::walk_interleaved(const Ray* rays, const std::uint32_t* which, std::size_t n,
@@ -237,11 +245,11 @@ void KdAccel::walk_interleaved(const Ray* rays, const std::uint32_t* which, std:
       Hit& hit = kAnyHit ? any_hit[slot] : hits[i];
       hit = Hit{};
       hit.t = ray.tmax;
-      if (ray.tmin <= ray.tmax && KdRaySetup::traversable(ray) &&
-          wide_.root != KdWideTree::kEmpty) {
-        const KdRaySetup setup(ray, tree_.bounds, coord_scale_);
-        if (setup.t0 <= setup.t1) {
-          walks[slot] = new (storage[slot]) Walk(view, ray, setup, hit);
+      if (ray.tmin <= ray.tmax && RobustRay::traversable(ray) && wide_.root != KdWideTree::kEmpty) {
+        const RobustRay r(ray, tree_.bounds, coord_scale_);
+        const RobustRay::Splits s = r.splits(tree_.bounds, ray.tmin, ray.tmax);
+        if (s.t0 <= s.t1) {
+          walks[slot] = new (storage[slot]) Walk(view, ray, r, s, hit);
           slot_ray[slot] = i;
           return;
         }
@@ -276,21 +284,6 @@ template void KdAccel::walk_interleaved<false>(const Ray*, const std::uint32_t*,
                                                std::uint8_t*) const;
 template void KdAccel::walk_interleaved<true>(const Ray*, const std::uint32_t*, std::size_t, Hit*,
                                               std::uint8_t*) const;
-
-#else
-
-template <bool kAnyHit>
-void KdAccel::walk_interleaved(const Ray* rays, const std::uint32_t* which, std::size_t n,
-                               Hit* hits, std::uint8_t* occluded) const {
-  walk_each<kAnyHit>(rays, which, n, hits, occluded);
-}
-
-template void KdAccel::walk_interleaved<false>(const Ray*, const std::uint32_t*, std::size_t, Hit*,
-                                               std::uint8_t*) const;
-template void KdAccel::walk_interleaved<true>(const Ray*, const std::uint32_t*, std::size_t, Hit*,
-                                              std::uint8_t*) const;
-
-#endif
 
 template <bool kAnyHit>
 void KdAccel::walk_each(const Ray* rays, const std::uint32_t* which, std::size_t n, Hit* hits,
