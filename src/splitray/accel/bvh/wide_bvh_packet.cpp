@@ -11,13 +11,13 @@
 #include "splitray/accel/bvh/wide_bvh.hpp"
 
 #if defined(__AVX512F__)
-#include <immintrin.h>
-
 #include <algorithm>
 #include <bit>
 #include <optional>
 
 #include "splitray/accel/bvh/wide_bvh_walk.hpp"
+#include "splitray/accel/traversal_stack.hpp"
+#include "splitray/core/simd.hpp"
 
 namespace splitray {
 
@@ -27,15 +27,15 @@ using wide_bvh::prefetch;
 using wide_bvh::test_leaf;
 using wide_bvh::WatertightBlock;
 
+using F = simd::Float16;  // a lane per ray
 constexpr int kLanes = WideBvh::kPacketRays;
-static_assert(kLanes == 16);
-constexpr int kStackSize = kWideWidth * 64;  // fewer than kWideWidth pushes per level, 64 levels
+static_assert(kLanes == F::kLanes);
 
 struct Entry {
   std::uint32_t child;
   std::uint32_t count;  // 0: a wide node
   std::uint32_t rays;   // the packet's rays that entered it (bit per ray)
-  float t;              // the least entry distance among them
+  float t0;             // the least entry distance among them
 };
 
 // The triangle test's constants of one ray, made at its first leaf (as the single-ray walk).
@@ -69,48 +69,42 @@ unsigned traverse_packet(std::span<const WideNode> node_span,
     best[r] = Hit{};
     tmax[r] = best[r].t = rays[r].tmax;
   }
-  __m512 v_org_near[3], v_org_far[3], v_inv[3];
+  F v_org_near[3], v_org_far[3], v_inv[3];
   for (int a = 0; a < 3; ++a) {
-    v_org_near[a] = _mm512_load_ps(org_near[a]);
-    v_org_far[a] = _mm512_load_ps(org_far[a]);
-    v_inv[a] = _mm512_load_ps(inv[a]);
+    v_org_near[a] = F::load(org_near[a]);
+    v_org_far[a] = F::load(org_far[a]);
+    v_inv[a] = F::load(inv[a]);
   }
-  const __m512 v_tmin = _mm512_load_ps(tmin);
-  __m512 v_best = _mm512_load_ps(tmax);  // lane r: best[r].t
+  const F v_tmin = F::load(tmin);
+  F v_best = F::load(tmax);  // lane r: best[r].t
   LeafRay leaf_rays[kLanes];
 
   const unsigned all = n == kLanes ? 0xffffu : (1u << n) - 1;
   unsigned live = all;  // any hit: the rays not yet occluded
-  Entry stack[kStackSize];
-  int sp = 0;
+  TraversalStack<Entry, wide_bvh::kStackSize> stack;
   Entry current{0, 0, live, 0};
   for (;;) {
     if (current.count == 0) {  // a wide node: each used child against every ray
       const WideNode& node = nodes[current.child];
-      const __mmask16 rays_in = static_cast<__mmask16>(current.rays);
-      const unsigned used = _mm512_cmp_ps_mask(_mm512_load_ps(node.planes[0]),
-                                               _mm512_load_ps(node.planes[3]), _CMP_LE_OQ);
+      const simd::Mask16 rays_in{static_cast<__mmask16>(current.rays)};
+      const unsigned used = (F::load(node.planes[0]) <= F::load(node.planes[3])).bits();
       Entry nearest{0, 0, 0, kInfinity};
-      const int base = sp;
+      const int mark = stack.size();
       for (unsigned m = used; m != 0; m &= m - 1) {
         const int c = std::countr_zero(m);
-        __m512 t0 = v_tmin, t1 = v_best;
-        for (int a = 0; a < 3; ++a) {
-          const __m512 lo =
-              _mm512_fmsub_ps(_mm512_set1_ps(node.planes[near[a]][c]), v_inv[a], v_org_near[a]);
-          const __m512 hi =
-              _mm512_fmsub_ps(_mm512_set1_ps(node.planes[far[a]][c]), v_inv[a], v_org_far[a]);
-          t0 = _mm512_maskz_max_ps(0xffff, lo, t0);  // NaN in the first operand keeps t0
-          t1 = _mm512_maskz_min_ps(0xffff, hi, t1);
+        F t0 = v_tmin, t1 = v_best;
+        for (int a = 0; a < 3; ++a) {  // NaN in the first operand keeps t0, t1
+          t0 = max(fmsub(F::broadcast(node.planes[near[a]][c]), v_inv[a], v_org_near[a]), t0);
+          t1 = min(fmsub(F::broadcast(node.planes[far[a]][c]), v_inv[a], v_org_far[a]), t1);
         }
-        const __mmask16 enter = _mm512_mask_cmp_ps_mask(rays_in, t0, t1, _CMP_LE_OQ);
+        const unsigned enter = ((t0 <= t1) & rays_in).bits();
         if (enter == 0) continue;
         if (node.count[c] == 0)
           prefetch<sizeof(WideNode)>(&nodes[node.child[c]]);
         else
           prefetch<sizeof(TriangleBlock)>(&blocks[node.child[c]]);
         alignas(64) float t_entry[kLanes];
-        _mm512_store_ps(t_entry, t0);
+        t0.store(t_entry);
         float t = kInfinity;
         for (unsigned r = enter; r != 0; r &= r - 1) t = std::min(t, t_entry[std::countr_zero(r)]);
         Entry e{node.child[c], node.count[c], enter, t};
@@ -118,10 +112,8 @@ unsigned traverse_packet(std::span<const WideNode> node_span,
           nearest = e;
           continue;
         }
-        if (e.t < nearest.t) std::swap(e, nearest);
-        int j = sp++;  // keep this node's entries ordered: farther ones lower
-        for (; j > base && stack[j - 1].t < e.t; --j) stack[j] = stack[j - 1];
-        stack[j] = e;
+        if (e.t0 < nearest.t0) std::swap(e, nearest);
+        stack.push_ordered(e, mark);
       }
       if (nearest.rays != 0) {
         current = nearest;
@@ -139,15 +131,19 @@ unsigned traverse_packet(std::span<const WideNode> node_span,
         tmax[r] = best[r].t;
       }
       if (AnyHit && live == 0) return all;
-      v_best = _mm512_load_ps(tmax);
+      v_best = F::load(tmax);
     }
-    for (;;) {  // the next entry with a ray whose closest hit is not in front of it
-      if (sp == 0) return all & ~live;
-      current = stack[--sp];
-      current.rays = _mm512_mask_cmp_ps_mask(static_cast<__mmask16>(current.rays & live),
-                                             _mm512_set1_ps(current.t), v_best, _CMP_LE_OQ);
-      if (current.rays != 0) break;
-    }
+    // The next entry with a ray whose closest hit is not in front of it (the culled pop, ray
+    // by ray: a lane keeps the entry while its t0 <= the lane's closest t).
+    unsigned keep = 0;
+    const Entry* next = stack.pop_until([&](const Entry& e) {
+      keep = ((F::broadcast(e.t0) <= v_best) & simd::Mask16{static_cast<__mmask16>(e.rays & live)})
+                 .bits();
+      return keep != 0;
+    });
+    if (!next) return all & ~live;
+    current = *next;
+    current.rays = keep;
   }
 }
 

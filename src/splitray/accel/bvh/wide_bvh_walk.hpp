@@ -1,11 +1,11 @@
 #pragma once
-// One ray against the wide layout (wide_bvh.hpp): its node and block tests and its walk, shared
-// by the single-ray calls (wide_bvh_traverse.cpp) and the packets (wide_bvh_packet.cpp), which
-// hand a ray its own walk below the node where it parts from the packet; so a ray enters the
-// same children and tests the same triangles in both. The slab test of the AVX paths (with
-// FMA) and of the scalar path round differently, but both stay within the padding of
-// robust_ray.hpp (min/max operand order keeps NaN out), so both let every ray through to every
-// triangle it may hit, and the answers come from the same watertight triangle test.
+// One ray against the wide layout (wide_bvh.hpp): its node and block tests and its walk, used
+// by the single-ray calls (wide_bvh_traverse.cpp); the packets (wide_bvh_packet.cpp) repeat the
+// node test lane by lane and share the block test, so a ray enters the same children and tests
+// the same triangles in both. The slab test of the SIMD paths (with FMA) and of the scalar path
+// round differently, but both stay within the padding of robust_ray.hpp (min/max operand order
+// keeps NaN out), so both let every ray through to every triangle it may hit, and the answers
+// come from the same watertight triangle test.
 #if defined(__SSE__)
 #include <immintrin.h>
 #endif
@@ -18,77 +18,63 @@
 
 #include "splitray/accel/bvh/wide_bvh.hpp"
 #include "splitray/accel/robust_ray.hpp"
+#include "splitray/accel/traversal_stack.hpp"
+#include "splitray/core/simd.hpp"
 #include "splitray/core/triangle_simd.hpp"
 
 namespace splitray::wide_bvh {
 
-// The per-ray constants of the wide slab test: plane rows by direction sign, and the
-// origins and inverse direction broadcast once.
+// The per-ray constants of the wide slab test: plane rows by direction sign, and the origins
+// times the inverse direction and the inverse broadcast once. A plane's parameter is
+// plane * inv - org * inv in one rounding (fmsub): the extra error of rounding org * inv is below
+// 2^-24 |org inv|, 1/64 of the padding (robust_ray.hpp), so the test stays conservative; a zero
+// direction component gives NaN, which keeps the slot (max and min keep their second operand).
+#if defined(__AVX512F__) || (defined(__AVX__) && defined(__FMA__))
 struct WideSlab {
-  int near[3], far[3];
 #if defined(__AVX512F__)
-  __m512 org_near[3], org_far[3], inv[3];  // origin times inv
-#elif defined(__AVX__)
-  __m256 org_near[3], org_far[3], inv[3];  // org_*: origin times inv (FMA) or the origin
+  using Lanes = simd::Float16;
+#else
+  using Lanes = simd::Float8;
 #endif
+  static_assert(Lanes::kLanes == kWideWidth);
+  int near[3], far[3];
+  Lanes org_near[3], org_far[3], inv[3];
   const RobustRay& r;
 
   explicit WideSlab(const RobustRay& ray) : r(ray) {
     for (int a = 0; a < 3; ++a) {
       near[a] = r.negative[a] ? 3 + a : a;
       far[a] = r.negative[a] ? a : 3 + a;
-#if defined(__AVX512F__)
-      org_near[a] = _mm512_set1_ps(r.org_near[a] * r.inv[a]);
-      org_far[a] = _mm512_set1_ps(r.org_far[a] * r.inv[a]);
-      inv[a] = _mm512_set1_ps(r.inv[a]);
-#elif defined(__AVX__)
-#if defined(__FMA__)
-      org_near[a] = _mm256_set1_ps(r.org_near[a] * r.inv[a]);
-      org_far[a] = _mm256_set1_ps(r.org_far[a] * r.inv[a]);
-#else
-      org_near[a] = _mm256_set1_ps(r.org_near[a]);
-      org_far[a] = _mm256_set1_ps(r.org_far[a]);
-#endif
-      inv[a] = _mm256_set1_ps(r.inv[a]);
-#endif
+      org_near[a] = Lanes::broadcast(r.org_near[a] * r.inv[a]);
+      org_far[a] = Lanes::broadcast(r.org_far[a] * r.inv[a]);
+      inv[a] = Lanes::broadcast(r.inv[a]);
     }
   }
 
   // Entry parameters into all slots (within [tmin, tmax]); bit i set on a hit.
   unsigned test(const WideNode& n, float tmin, float tmax, float* t_entry) const {
-#if defined(__AVX512F__)
-    __m512 t0 = _mm512_set1_ps(tmin), t1 = _mm512_set1_ps(tmax);
+    Lanes t0 = Lanes::broadcast(tmin), t1 = Lanes::broadcast(tmax);
     for (int a = 0; a < 3; ++a) {
-      const __m512 lo = _mm512_fmsub_ps(_mm512_load_ps(n.planes[near[a]]), inv[a], org_near[a]);
-      const __m512 hi = _mm512_fmsub_ps(_mm512_load_ps(n.planes[far[a]]), inv[a], org_far[a]);
-      // NaN in the first operand keeps t0 (as below); the zero-masked forms avoid a false
-      // may-be-uninitialised warning of GCC 12's plain _mm512_max_ps.
-      t0 = _mm512_maskz_max_ps(0xffff, lo, t0);
-      t1 = _mm512_maskz_min_ps(0xffff, hi, t1);
+      t0 = max(fmsub(Lanes::load(n.planes[near[a]]), inv[a], org_near[a]), t0);
+      t1 = min(fmsub(Lanes::load(n.planes[far[a]]), inv[a], org_far[a]), t1);
     }
-    _mm512_store_ps(t_entry, t0);
-    return static_cast<unsigned>(_mm512_cmp_ps_mask(t0, t1, _CMP_LE_OQ));
-#elif defined(__AVX__)
-    __m256 t0 = _mm256_set1_ps(tmin), t1 = _mm256_set1_ps(tmax);
+    t0.store(t_entry);
+    return (t0 <= t1).bits();
+  }
+};
+#else
+struct WideSlab {  // the portable build: one slot at a time
+  int near[3], far[3];
+  const RobustRay& r;
+
+  explicit WideSlab(const RobustRay& ray) : r(ray) {
     for (int a = 0; a < 3; ++a) {
-#if defined(__FMA__)
-      // plane * inv - org * inv in one rounding: the extra error of rounding org * inv is
-      // below 2^-24 |org inv|, 1/64 of the padding (robust_ray.hpp), so the test stays
-      // conservative; a zero direction component gives NaN, which keeps the slot (safe).
-      const __m256 lo = _mm256_fmsub_ps(_mm256_load_ps(n.planes[near[a]]), inv[a], org_near[a]);
-      const __m256 hi = _mm256_fmsub_ps(_mm256_load_ps(n.planes[far[a]]), inv[a], org_far[a]);
-      t0 = _mm256_max_ps(lo, t0);  // NaN in the first operand keeps t0
-      t1 = _mm256_min_ps(hi, t1);
-#else
-      const __m256 lo = _mm256_sub_ps(_mm256_load_ps(n.planes[near[a]]), org_near[a]);
-      const __m256 hi = _mm256_sub_ps(_mm256_load_ps(n.planes[far[a]]), org_far[a]);
-      t0 = _mm256_max_ps(_mm256_mul_ps(lo, inv[a]), t0);  // NaN in the first operand keeps t0
-      t1 = _mm256_min_ps(_mm256_mul_ps(hi, inv[a]), t1);
-#endif
+      near[a] = r.negative[a] ? 3 + a : a;
+      far[a] = r.negative[a] ? a : 3 + a;
     }
-    _mm256_store_ps(t_entry, t0);
-    return static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(t0, t1, _CMP_LE_OQ)));
-#else
+  }
+
+  unsigned test(const WideNode& n, float tmin, float tmax, float* t_entry) const {
     unsigned mask = 0;
     for (int i = 0; i < kWideWidth; ++i) {
       float t0 = tmin, t1 = tmax;
@@ -100,9 +86,9 @@ struct WideSlab {
       if (t0 <= t1) mask |= 1u << i;
     }
     return mask;
-#endif
   }
 };
+#endif
 
 // Asks for the cache lines of a node, or of a leaf's first block, before they are needed.
 template <std::size_t kBytes>
@@ -173,7 +159,7 @@ constexpr int kStackSize = kWideWidth * 64;  // fewer than kWideWidth pushes per
 struct Entry {
   std::uint32_t child;
   std::uint32_t count;  // 0: a wide node
-  float t;              // where the ray enters it
+  float t0;             // where the ray enters it
 };
 
 // What the plain walk counts: nothing (every call compiles away).
@@ -210,8 +196,7 @@ bool walk(const WideNode* nodes, const TriangleBlock* blocks, const Ray& ray, co
   std::optional<WatertightBlock> wb;
   const float tmin = ray.tmin;
   Hit best = hit;  // best.t: the far end of every test (tmax for an any-hit query)
-  Entry stack[kStackSize];
-  int sp = 0;
+  TraversalStack<Entry, kStackSize> stack;
   Entry current = start;
   for (;;) {
     if (current.count == 0) {  // a wide node: enter the nearest hit child, push the others
@@ -232,15 +217,13 @@ bool walk(const WideNode* nodes, const TriangleBlock* blocks, const Ray& ray, co
         int i = std::countr_zero(mask);
         mask &= mask - 1;
         Entry nearest{n.child[i], n.count[i], t_entry[i]};
-        const int base = sp;
-        while (mask != 0) {  // keep this node's entries ordered: farther ones lower
+        const int mark = stack.size();
+        while (mask != 0) {
           i = std::countr_zero(mask);
           mask &= mask - 1;
           Entry e{n.child[i], n.count[i], t_entry[i]};
-          if (e.t < nearest.t) std::swap(e, nearest);
-          int j = sp++;
-          for (; j > base && stack[j - 1].t < e.t; --j) stack[j] = stack[j - 1];
-          stack[j] = e;
+          if (e.t0 < nearest.t0) std::swap(e, nearest);
+          stack.push_ordered(e, mark);
         }
         current = nearest;
         continue;
@@ -251,14 +234,12 @@ bool walk(const WideNode* nodes, const TriangleBlock* blocks, const Ray& ray, co
       if (test_leaf<AnyHit>(blocks + current.child, current.count, *w, *wb, tmin, best) && AnyHit)
         return true;
     }
-    for (;;) {  // the next entry not behind the closest hit
-      if (sp == 0) {
-        hit = best;
-        return false;
-      }
-      current = stack[--sp];
-      if (current.t <= best.t) break;
+    const Entry* next = stack.pop_not_behind(best.t);
+    if (!next) {
+      hit = best;
+      return false;
     }
+    current = *next;
   }
 }
 
