@@ -109,6 +109,12 @@ std::vector<Camera> turned_views(const Camera& base, int count, const Aabb& boun
   return views;
 }
 
+std::string report_path(const std::string& path) {
+  std::error_code error;
+  const fs::path relative = fs::proximate(path, error);
+  return error ? path : relative.string();
+}
+
 std::string shared_data_dir() {
   if (const char* env = std::getenv("SPLITRAY_SHARED_DATA")) return env;
   const fs::path beside = fs::path(SPLITRAY_SOURCE_DIR).parent_path() / "shared" / "data";

@@ -30,6 +30,10 @@ Camera fit_camera(std::span<const Triangle> triangles, float vfov_degrees = 45);
 // result from depending on one picture.
 std::vector<Camera> turned_views(const Camera& base, int count, const Aabb& bounds);
 
+// A mesh's path as reports show it: relative to the working folder (no machine's absolute
+// paths in results that are committed).
+std::string report_path(const std::string& path);
+
 // ../shared/data next to the source tree, or $SPLITRAY_SHARED_DATA; "" if absent.
 std::string shared_data_dir();
 

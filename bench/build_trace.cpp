@@ -203,7 +203,7 @@ Json run_build_trace(const BuildTraceOptions& options) {
   Json mesh_reports = Json::array();
   for (std::size_t m = 0; m < meshes.size(); ++m) {
     const BenchMesh& mesh = meshes[m];
-    Json mr{{"name", mesh.name}, {"path", mesh.path}};
+    Json mr{{"name", mesh.name}, {"path", report_path(mesh.path)}};
     std::vector<Triangle> triangles;
     try {
       Timer timer;

@@ -333,7 +333,7 @@ Json run_bvh_bench(const BvhBenchOptions& options) {
     const std::vector<Camera> views = turned_views(camera, options.views, bounds);
     fmt::print(stderr, "[{}/{}] {} ({} triangles, {}, {} views)\n", m + 1, meshes.size(), mesh.name,
                triangles.size(), mesh.view, views.size());
-    Json mr{{"name", mesh.name}, {"path", mesh.path}, {"triangles", triangles.size()}};
+    Json mr{{"name", mesh.name}, {"path", report_path(mesh.path)}, {"triangles", triangles.size()}};
     mr["views"] = Json::array();
     for (const Camera& v : views)
       mr["views"].push_back(camera_json(v, bounds.contains(v.eye) ? "inside" : "outside"));
