@@ -6,29 +6,25 @@
 namespace splitray {
 
 using wide_bvh::Counting;
-using wide_bvh::Entry;
 using wide_bvh::walk;
 
 void WideBvh::intersect(const Ray& ray, const Aabb& scene, float magnitude, Hit& hit) const {
   if (nodes_.empty()) return;
-  walk<false>(nodes_.data(), blocks_.data(), ray, RobustRay(ray, scene, magnitude), Entry{0, 0, 0},
-              hit);
+  walk<false>(nodes_.data(), blocks_.data(), ray, scene, magnitude, hit);
 }
 
 bool WideBvh::occluded(const Ray& ray, const Aabb& scene, float magnitude) const {
   if (nodes_.empty()) return false;
   Hit hit;
   hit.t = ray.tmax;
-  return walk<true>(nodes_.data(), blocks_.data(), ray, RobustRay(ray, scene, magnitude),
-                    Entry{0, 0, 0}, hit);
+  return walk<true>(nodes_.data(), blocks_.data(), ray, scene, magnitude, hit);
 }
 
 void WideBvh::intersect_counted(const Ray& ray, const Aabb& scene, float magnitude, Hit& hit,
                                 WideBvhCounts& counts) const {
   ++counts.rays;
   if (nodes_.empty()) return;
-  walk<false>(nodes_.data(), blocks_.data(), ray, RobustRay(ray, scene, magnitude), Entry{0, 0, 0},
-              hit, Counting{counts});
+  walk<false>(nodes_.data(), blocks_.data(), ray, scene, magnitude, hit, Counting{counts});
 }
 
 }  // namespace splitray
