@@ -34,8 +34,11 @@ inline bool within_coordinate_limit(const Vec3& p) { return within(p, kMaxCoordi
 
 // Whether structures trace the ray (after rescaling its direction); any other ray misses
 // and is never occluded.
+//
+// max|dir| is taken with comparisons (max_component), not std::fmax, which GCC calls through
+// the PLT on every ray of every call; a NaN component is caught by the isnan tests either way.
 inline bool traceable(const Ray& r) {
-  const float d = std::fmax(std::fabs(r.dir.x), std::fmax(std::fabs(r.dir.y), std::fabs(r.dir.z)));
+  const float d = max_component(abs(r.dir));
   return within(r.org, kMaxRayOrigin) && d > 0 && d <= 0x1p127f && !std::isnan(r.dir.x) &&
          !std::isnan(r.dir.y) && !std::isnan(r.dir.z) && r.tmin <= r.tmax;  // false for NaN
 }
@@ -44,7 +47,7 @@ inline bool traceable(const Ray& r) {
 // component lies in [2^-2, 2^2]: 0 (no change) for most rays, else the exponent that brings it
 // to [1, 2). Scaling by a power of two is exact, so t = t_scaled * 2^k exactly.
 inline int direction_exponent(const Ray& r) {
-  const float d = std::fmax(std::fabs(r.dir.x), std::fmax(std::fabs(r.dir.y), std::fabs(r.dir.z)));
+  const float d = max_component(abs(r.dir));
   if (d >= 0x1p-2f && d <= 0x1p2f) return 0;
   int e = 0;
   std::frexp(d, &e);  // d = m * 2^e with m in [0.5, 1)

@@ -2,9 +2,10 @@
 // The traversal layout of a Bvh: the binary tree collapsed into nodes of up to kWideWidth
 // children whose boxes are stored axis by axis (32 bytes per child), so that one SIMD slab
 // test checks them all and a ray waits on a quarter (16 wide) or a third (8 wide) of the
-// dependent memory loads of the binary tree. Diffuse rays are bound by those waits, so with
-// AVX-512 a node holds sixteen children (512 bytes, one 16-lane test): 11% faster than eight
-// on sibenik's diffuse rays, with the same answers.
+// dependent memory loads of the binary tree. With AVX-512 a node may hold sixteen children
+// (512 bytes, one 16-lane test): on the AMD EPYC 11% faster than eight on sibenik's diffuse
+// rays, on the Intel Xeon 11-14% slower on primary rays and level elsewhere, so CMake picks
+// the width by CPU (SPLITRAY_BVH_WIDTH); the answers are the same.
 // Collapsing keeps every binary leaf; a leaf's triangles are stored as blocks of eight in
 // SIMD rows (one cache-line-aligned block holds a whole leaf of the SAH builders, which cost
 // leaves per eight triangles), tested at once by the watertight test with the very same
@@ -19,7 +20,11 @@
 
 namespace splitray {
 
-#if defined(__AVX512F__)
+// SPLITRAY_BVH_WIDTH (CMake, chosen by CPU: docs/experiments.md) may ask for eight with AVX-512.
+#if !defined(SPLITRAY_BVH_WIDTH)
+#define SPLITRAY_BVH_WIDTH 16
+#endif
+#if defined(__AVX512F__) && SPLITRAY_BVH_WIDTH == 16
 inline constexpr int kWideWidth = 16;
 #else
 inline constexpr int kWideWidth = 8;

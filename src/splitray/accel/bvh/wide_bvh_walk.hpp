@@ -31,7 +31,7 @@ namespace splitray::wide_bvh {
 // direction component gives NaN, which keeps the slot (max and min keep their second operand).
 #if defined(__AVX512F__) || (defined(__AVX__) && defined(__FMA__))
 struct WideSlab {
-#if defined(__AVX512F__)
+#if defined(__AVX512F__) && SPLITRAY_BVH_WIDTH == 16
   using Lanes = simd::Float16;
 #else
   using Lanes = simd::Float8;
