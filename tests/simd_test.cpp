@@ -108,6 +108,26 @@ TEST(Simd, Float16EqualsScalarLaneByLane) {
 #endif
 }
 
+TEST(Simd, MinOfTheMaskedLanesEqualsTheScalarMinimum) {
+#if defined(__AVX512F__)
+  Pcg32 rng(7);
+  for (int round = 0; round < 2000; ++round) {
+    alignas(64) float x[16];
+    for (float& v : x) v = 200 * rng.next_float() - 100;
+    if (round % 5 == 0) x[round % 16] = -std::numeric_limits<float>::infinity();
+    const unsigned mask = round == 1 ? 0u : rng.next_u32() & 0xffffu;
+    float expected = std::numeric_limits<float>::infinity();  // empty mask: +inf
+    for (int i = 0; i < 16; ++i)
+      if (mask & (1u << i)) expected = std::min(expected, x[i]);
+    ASSERT_EQ(simd::min_of(simd::Float16::load(x), simd::Mask16{static_cast<__mmask16>(mask)}),
+              expected)
+        << "round " << round;
+  }
+#else
+  GTEST_SKIP() << "built without AVX-512";
+#endif
+}
+
 TEST(Simd, PermuteTakesTheIndexedLanes) {
 #if defined(__AVX2__)
   alignas(32) const float table[8] = {10, 11, 12, 13, 14, 15, 16, 17};

@@ -115,6 +115,18 @@ inline Float16 operator/(Float16 a, Float16 b) { return _mm512_div_ps(a, b); }
 inline Float16 min(Float16 a, Float16 b) { return _mm512_maskz_min_ps(0xffff, a, b); }
 inline Float16 max(Float16 a, Float16 b) { return _mm512_maskz_max_ps(0xffff, a, b); }
 inline Float16 abs(Float16 x) { return _mm512_abs_ps(x); }
+// The least of the lanes in `m` (+inf when m is empty), halving the lanes four times
+// (zero-masked extracts: the plain ones, and so the casts to 256 bits, trip the warning above).
+inline float min_of(Float16 x, Mask16 m) {
+  const __m512 v = _mm512_mask_blend_ps(m.m, _mm512_set1_ps(__builtin_inff()), x);
+  const __m256 high = _mm256_castpd_ps(_mm512_maskz_extractf64x4_pd(0xff, _mm512_castps_pd(v), 1));
+  const __m256 m8 = _mm256_min_ps(
+      _mm256_castpd_ps(_mm512_maskz_extractf64x4_pd(0xff, _mm512_castps_pd(v), 0)), high);
+  __m128 m4 = _mm_min_ps(_mm256_castps256_ps128(m8), _mm256_extractf128_ps(m8, 1));
+  m4 = _mm_min_ps(m4, _mm_movehl_ps(m4, m4));
+  m4 = _mm_min_ss(m4, _mm_shuffle_ps(m4, m4, 1));
+  return _mm_cvtss_f32(m4);
+}
 inline Float16 with_sign(Float16 magnitude, Float16 sign) {
   const __m512i bit = _mm512_set1_epi32(static_cast<int>(0x80000000u));
   return _mm512_castsi512_ps(_mm512_or_si512(_mm512_castps_si512(magnitude),

@@ -101,17 +101,14 @@ unsigned traverse_packet(std::span<const WideNode> node_span,
           t0 = max(fmsub(F::broadcast(node.planes[near[a]][c]), v_inv[a], v_org_near[a]), t0);
           t1 = min(fmsub(F::broadcast(node.planes[far[a]][c]), v_inv[a], v_org_far[a]), t1);
         }
-        const unsigned enter = ((t0 <= t1) & rays_in).bits();
+        const simd::Mask16 entering = (t0 <= t1) & rays_in;
+        const unsigned enter = entering.bits();
         if (enter == 0) continue;
         if (node.count[c] == 0)
           prefetch<sizeof(WideNode)>(&nodes[node.child[c]]);
         else
           prefetch<sizeof(TriangleBlock)>(&blocks[node.child[c]]);
-        alignas(64) float t_entry[kLanes];
-        t0.store(t_entry);
-        float t = kInfinity;
-        for (unsigned r = enter; r != 0; r &= r - 1) t = std::min(t, t_entry[std::countr_zero(r)]);
-        Entry e{node.child[c], node.count[c], enter, t};
+        Entry e{node.child[c], node.count[c], enter, min_of(t0, entering)};
         if (nearest.rays == 0) {
           nearest = e;
           continue;
