@@ -87,11 +87,8 @@ unsigned traverse_packet(std::span<const WideNode> node_span,
     if (current.count == 0) {  // a wide node: each used child against every ray
       const WideNode& node = nodes[current.child];
       const simd::Mask16 rays_in{static_cast<__mmask16>(current.rays)};
-      unsigned used;
-      if constexpr (kWideWidth == 16)
-        used = (F::load(node.planes[0]) <= F::load(node.planes[3])).bits();
-      else
-        used = (simd::Float8::load(node.planes[0]) <= simd::Float8::load(node.planes[3])).bits();
+      using Slots = wide_bvh::WideSlab::Lanes;  // a lane per child
+      const unsigned used = (Slots::load(node.planes[0]) <= Slots::load(node.planes[3])).bits();
       Entry nearest{0, 0, 0, kInfinity};
       const int mark = stack.size();
       for (unsigned m = used; m != 0; m &= m - 1) {

@@ -15,6 +15,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <optional>
+#include <type_traits>
 
 #include "splitray/accel/bvh/wide_bvh.hpp"
 #include "splitray/accel/robust_ray.hpp"
@@ -31,8 +32,9 @@ namespace splitray::wide_bvh {
 // direction component gives NaN, which keeps the slot (max and min keep their second operand).
 #if defined(__AVX512F__) || (defined(__AVX__) && defined(__FMA__))
 struct WideSlab {
-#if defined(__AVX512F__) && SPLITRAY_BVH_WIDTH == 16
-  using Lanes = simd::Float16;
+  // One lane per child of a node (the packets load a node's rows with it too).
+#if defined(__AVX512F__)
+  using Lanes = std::conditional_t<kWideWidth == 16, simd::Float16, simd::Float8>;
 #else
   using Lanes = simd::Float8;
 #endif
