@@ -18,6 +18,7 @@ template <class T>
 struct HugePageAllocator {
   using value_type = T;
   static constexpr std::size_t kHugePage = std::size_t{1} << 21;
+  static constexpr std::size_t kSmallPage = std::size_t{1} << 12;
   static constexpr std::size_t kAlign = alignof(T) > 64 ? alignof(T) : 64;
   static constexpr std::size_t kMinBytes = kHugePage / 2;  // smaller arrays: ordinary memory
 
@@ -42,6 +43,11 @@ struct HugePageAllocator {
       if (head > 0) munmap(start, head);
       if (kHugePage > head) munmap(aligned + rounded, kHugePage - head);  // the tail
       madvise(aligned, rounded, MADV_HUGEPAGE);                           // only a hint
+      // The pages are faulted in here, by one thread. Left to the parallel loops that fill the
+      // array, two threads faulting on the same huge page each cleared a 2 MiB page for it
+      // (the kernel keeps one), which made the collapse of a build 4x slower at random.
+      for (std::size_t offset = 0; offset < rounded; offset += kSmallPage)
+        static_cast<volatile char*>(aligned)[offset] = 0;
       return reinterpret_cast<T*>(aligned);
     }
 #endif
