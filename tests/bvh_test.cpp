@@ -143,11 +143,23 @@ TEST(Bvh, PacketsMatchBrute) {
                                       hits);
           const unsigned occluded =
               bvh.wide().occluded_packet(group, bvh.bounds(), coordinate_magnitude(bvh.bounds()));
+          // A partial packet (the last group of a batch), 1 to 15 rays.
+          const std::size_t part = 1 + (i / WideBvh::kPacketRays) % (WideBvh::kPacketRays - 1);
+          Hit part_hits[WideBvh::kPacketRays];
+          bvh.wide().intersect_packet(group.first(part), bvh.bounds(),
+                                      coordinate_magnitude(bvh.bounds()), part_hits);
+          const unsigned part_occluded = bvh.wide().occluded_packet(
+              group.first(part), bvh.bounds(), coordinate_magnitude(bvh.bounds()));
+          wrong += part_occluded >> part == 0 ? 0 : 1;  // no answer for rays not given
           for (int r = 0; r < WideBvh::kPacketRays; ++r) {
             Hit expected = brute.hits[i + r];
             if (!expected.found()) expected.t = group[r].tmax;  // the packet leaves t = tmax
             wrong += same_hit(expected, hits[r]) ? 0 : 1;
             wrong += ((occluded >> r) & 1u) == brute.occluded[i + r] ? 0 : 1;
+            if (static_cast<std::size_t>(r) < part) {
+              wrong += same_hit(expected, part_hits[r]) ? 0 : 1;
+              wrong += ((part_occluded >> r) & 1u) == brute.occluded[i + r] ? 0 : 1;
+            }
           }
         }
         EXPECT_EQ(wrong, 0u) << name << " " << builder;
