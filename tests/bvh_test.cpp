@@ -132,24 +132,24 @@ TEST(Bvh, PacketsMatchBrute) {
         for (std::size_t i = 0; i + WideBvh::kPacketRays <= rays.size();
              i += WideBvh::kPacketRays) {
           const std::span<const Ray> group(rays.data() + i, WideBvh::kPacketRays);
-          bool same_signs = true;
-          for (const Ray& r : group)
-            for (int a = 0; a < 3; ++a)
-              same_signs = same_signs && std::signbit(r.dir[a]) == std::signbit(group[0].dir[a]);
-          if (!same_signs) continue;  // the packet walk's precondition
-          ++packets;
+          const Aabb box = bvh.bounds();
           Hit hits[WideBvh::kPacketRays];
-          bvh.wide().intersect_packet(group, bvh.bounds(), coordinate_magnitude(bvh.bounds()),
-                                      hits);
+          // Every group with the same direction signs, the packet walk's precondition, whatever
+          // the angles between its rays.
+          if (!bvh.wide().intersect_packet(group, box, coordinate_magnitude(box), hits, true))
+            continue;
+          ++packets;
           const unsigned occluded =
-              bvh.wide().occluded_packet(group, bvh.bounds(), coordinate_magnitude(bvh.bounds()));
+              bvh.wide().occluded_packet(group, box, coordinate_magnitude(box), true).value();
           // A partial packet (the last group of a batch), 1 to 15 rays.
           const std::size_t part = 1 + (i / WideBvh::kPacketRays) % (WideBvh::kPacketRays - 1);
           Hit part_hits[WideBvh::kPacketRays];
-          bvh.wide().intersect_packet(group.first(part), bvh.bounds(),
-                                      coordinate_magnitude(bvh.bounds()), part_hits);
-          const unsigned part_occluded = bvh.wide().occluded_packet(
-              group.first(part), bvh.bounds(), coordinate_magnitude(bvh.bounds()));
+          bvh.wide().intersect_packet(group.first(part), box, coordinate_magnitude(box), part_hits,
+                                      true);
+          const unsigned part_occluded =
+              bvh.wide()
+                  .occluded_packet(group.first(part), box, coordinate_magnitude(box), true)
+                  .value();
           wrong += part_occluded >> part == 0 ? 0 : 1;  // no answer for rays not given
           for (int r = 0; r < WideBvh::kPacketRays; ++r) {
             Hit expected = brute.hits[i + r];
@@ -166,6 +166,34 @@ TEST(Bvh, PacketsMatchBrute) {
         EXPECT_GT(packets, rays.size() / WideBvh::kPacketRays / 2) << name << " " << builder;
       }
     }
+  }
+}
+
+TEST(Bvh, PacketsTakeOnlyCoherentRays) {
+  if constexpr (WideBvh::kPackets) {
+    const Reference& ref = reference(vendored_file(kHorse));
+    const Bvh bvh = Bvh::build(ref.tris, "binned", BvhBuildOptions{});
+    const Aabb box = bvh.bounds();
+    const auto rays_towards = [&](const Vec3& a, const Vec3& b) {
+      std::vector<Ray> rays(WideBvh::kPacketRays, Ray{box.center() - a * 10.0f, a});
+      rays.back().dir = b;
+      return rays;
+    };
+    const auto takes = [&](const std::vector<Ray>& rays, bool any_angle) {
+      Hit hits[WideBvh::kPacketRays];
+      const bool closest =
+          bvh.wide().intersect_packet(rays, box, coordinate_magnitude(box), hits, any_angle);
+      const bool any =
+          bvh.wide().occluded_packet(rays, box, coordinate_magnitude(box), any_angle).has_value();
+      EXPECT_EQ(closest, any);
+      return closest;
+    };
+    const Vec3 along{1, 0.1f, 0.1f};
+    EXPECT_TRUE(takes(rays_towards(along, along * 3.0f), false));      // same direction
+    EXPECT_FALSE(takes(rays_towards(along, {1, 1.5f, 0.1f}), false));  // 50 degrees apart
+    EXPECT_TRUE(takes(rays_towards(along, {1, 1.5f, 0.1f}), true));    // ... allowed
+    EXPECT_FALSE(takes(rays_towards(along, {1, -0.1f, 0.1f}), true));  // other y sign
+    EXPECT_FALSE(takes(rays_towards(along, {-1, 0.1f, 0.1f}), true));  // other x sign
   }
 }
 

@@ -157,33 +157,13 @@ Hit Bvh::intersect_counted(const Ray& ray, WideBvhCounts& counts) const {
   return hit;
 }
 
-namespace {
-
-// Whether rays walk the tree well together: the same direction signs (so the same near and far
-// box planes) and directions within about 25 degrees of the first's, as neighbouring primary
-// rays, or shadow rays towards one light. Diverging rays (diffuse bounces) would each pay for
-// the nodes the others enter, so they walk alone.
-bool coherent(std::span<const Ray> rays) {
-  const Ray& first = rays[0];
-  const float first_length = length(first.dir);
-  for (const Ray& r : rays) {
-    for (int a = 0; a < 3; ++a)
-      if (std::signbit(r.dir[a]) != std::signbit(first.dir[a])) return false;
-    if (!(dot(r.dir, first.dir) >= 0.9f * length(r.dir) * first_length)) return false;
-  }
-  return true;
-}
-
-}  // namespace
-
 void Bvh::intersect(std::span<const Ray> rays, std::span<Hit> hits) const {
   for (std::size_t i = 0; i < rays.size(); i += WideBvh::kPacketRays) {
     const std::size_t n = std::min<std::size_t>(WideBvh::kPacketRays, rays.size() - i);
     const std::span<const Ray> group = rays.subspan(i, n);
     Hit* out = hits.data() + i;
     if constexpr (WideBvh::kPackets) {
-      if (!nodes_.empty() && coherent(group)) {
-        wide_.intersect_packet(group, scene_, magnitude_, out);
+      if (!nodes_.empty() && wide_.intersect_packet(group, scene_, magnitude_, out)) {
         for (std::size_t r = 0; r < n; ++r)
           if (!out[r].found()) out[r] = Hit{};
         continue;
@@ -198,9 +178,10 @@ void Bvh::occluded(std::span<const Ray> rays, std::span<std::uint8_t> result) co
     const std::size_t n = std::min<std::size_t>(WideBvh::kPacketRays, rays.size() - i);
     const std::span<const Ray> group = rays.subspan(i, n);
     if constexpr (WideBvh::kPackets) {
-      if (!nodes_.empty() && coherent(group)) {
-        const unsigned hit = wide_.occluded_packet(group, scene_, magnitude_);
-        for (std::size_t r = 0; r < n; ++r) result[i + r] = (hit >> r) & 1u;
+      const std::optional<unsigned> hit =
+          nodes_.empty() ? std::nullopt : wide_.occluded_packet(group, scene_, magnitude_);
+      if (hit) {
+        for (std::size_t r = 0; r < n; ++r) result[i + r] = (*hit >> r) & 1u;
         continue;
       }
     }

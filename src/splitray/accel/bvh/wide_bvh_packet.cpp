@@ -42,6 +42,55 @@ struct Entry {
   float t0;             // the least entry distance among them
 };
 
+// A packet's rays read a lane each: float f of each ray (the Ray's floats in order), 1 in the
+// lanes beyond the rays given.
+class PacketLoad {
+ public:
+  PacketLoad(const Ray* rays, int n)
+      : base_(&rays[0].org.x),
+        lanes_(static_cast<__mmask16>(n == kLanes ? 0xffffu : (1u << n) - 1)) {}
+  F field(int f) const {
+    static_assert(sizeof(Ray) == 8 * sizeof(float) && offsetof(Ray, tmax) == 7 * sizeof(float));
+    const __m512i index = _mm512_add_epi32(
+        _mm512_mullo_epi32(_mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15),
+                           _mm512_set1_epi32(8)),
+        _mm512_set1_epi32(f));
+    return _mm512_mask_i32gather_ps(_mm512_set1_ps(1.0f), lanes_, index, base_, 4);
+  }
+  __mmask16 lanes() const { return lanes_; }
+
+ private:
+  const float* base_;
+  __mmask16 lanes_;
+};
+
+// Whether the rays walk the tree well together: the same direction signs (so the same near and
+// far box planes, the packet's precondition) and, unless `any_angle`, directions within about
+// 25 degrees of the first's, as neighbouring primary rays or shadow rays towards one light.
+// Diverging rays (diffuse bounces) would each pay for the nodes the others enter; their signs
+// turn them away ray by ray, mostly at the second, before any SIMD work.
+bool coherent(const Ray* rays, int n, const PacketLoad& load, bool any_angle) {
+  const auto signs = [](const Vec3& d) {
+    return static_cast<int>(std::signbit(d.x)) | static_cast<int>(std::signbit(d.y)) << 1 |
+           static_cast<int>(std::signbit(d.z)) << 2;
+  };
+  const Vec3 first = rays[0].dir;
+  const int first_signs = signs(first);
+  for (int r = 1; r < n; ++r)
+    if (signs(rays[r].dir) != first_signs) return false;
+  if (any_angle) return true;
+  F dot_first = F::zero(), length_squared = F::zero();
+  for (int a = 0; a < 3; ++a) {
+    const F dir = load.field(3 + a);
+    dot_first = dot_first + dir * F::broadcast(first[a]);
+    length_squared = length_squared + dir * dir;
+  }
+  // (The zero-masked sqrt: GCC 12 warns that the plain one's undefined source may be unset.)
+  const F length = _mm512_maskz_sqrt_ps(0xffff, length_squared);
+  const F bound = F::broadcast(0.9f) * length * F::broadcast(splitray::length(first));
+  return ((dot_first >= bound).bits() & load.lanes()) == load.lanes();
+}
+
 // The slab test's constants of a packet's rays, a lane each: RobustRay's float operations lane
 // by lane (so each equals the single-ray walk's), for all rays in one pass instead of ray by
 // ray (on the Cornell box, a third of a packet's time went to making them one at a time).
@@ -50,21 +99,12 @@ struct PacketRays {
   F tmin, tmax;
 };
 
-PacketRays packet_constants(const Ray* rays, int n, const Aabb& scene, float magnitude) {
-  static_assert(sizeof(Ray) == 8 * sizeof(float) && offsetof(Ray, tmax) == 7 * sizeof(float));
-  const __mmask16 lanes = static_cast<__mmask16>(n == kLanes ? 0xffffu : (1u << n) - 1);
-  const __m512i index =
-      _mm512_mullo_epi32(_mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15),
-                         _mm512_set1_epi32(8));
-  const float* base = &rays[0].org.x;
-  const auto field = [&](int f) -> F {  // float f of each ray (1 in the unused lanes)
-    return _mm512_mask_i32gather_ps(_mm512_set1_ps(1.0f), lanes,
-                                    _mm512_add_epi32(index, _mm512_set1_epi32(f)), base, 4);
-  };
-  const F org[3] = {field(0), field(1), field(2)}, dir[3] = {field(3), field(4), field(5)};
+PacketRays packet_constants(const PacketLoad& load, const Aabb& scene, float magnitude) {
+  const F org[3] = {load.field(0), load.field(1), load.field(2)};
+  const F dir[3] = {load.field(3), load.field(4), load.field(5)};
   PacketRays p;
-  p.tmin = field(6);
-  p.tmax = field(7);
+  p.tmin = load.field(6);
+  p.tmax = load.field(7);
   const F max_dir = max(abs(dir[0]), max(abs(dir[1]), abs(dir[2])));
   const F tiny =
       max(max_dir * F::broadcast(0x1p-40f), F::broadcast(std::numeric_limits<float>::min()));
@@ -116,12 +156,9 @@ class LeafRays {
 template <bool AnyHit>
 unsigned traverse_packet(std::span<const WideNode> node_span,
                          std::span<const TriangleBlock> block_span, const Ray* rays, int n,
-                         const Aabb& scene, float magnitude, Hit* best) {
+                         const PacketRays& p, Hit* best) {
   const WideNode* const nodes = node_span.data();
   const TriangleBlock* const blocks = block_span.data();
-  // Lane r: ray r's RobustRay constants, as WideSlab broadcasts them for the single-ray walk,
-  // made for all rays at once (packet_constants).
-  const PacketRays p = packet_constants(rays, n, scene, magnitude);
   int near[3], far[3];
   for (int a = 0; a < 3; ++a) {  // every ray of a packet has these signs (Bvh::intersect checks)
     const bool negative = std::signbit(rays[0].dir[a]);
@@ -206,17 +243,24 @@ unsigned traverse_packet(std::span<const WideNode> node_span,
 
 }  // namespace
 
-void WideBvh::intersect_packet(std::span<const Ray> rays, const Aabb& scene, float magnitude,
-                               Hit* hits) const {
-  traverse_packet<false>(nodes_, blocks_, rays.data(), static_cast<int>(rays.size()), scene,
-                         magnitude, hits);
+bool WideBvh::intersect_packet(std::span<const Ray> rays, const Aabb& scene, float magnitude,
+                               Hit* hits, bool any_angle) const {
+  const int n = static_cast<int>(rays.size());
+  const PacketLoad load(rays.data(), n);
+  if (!coherent(rays.data(), n, load, any_angle)) return false;
+  traverse_packet<false>(nodes_, blocks_, rays.data(), n, packet_constants(load, scene, magnitude),
+                         hits);
+  return true;
 }
 
-unsigned WideBvh::occluded_packet(std::span<const Ray> rays, const Aabb& scene,
-                                  float magnitude) const {
+std::optional<unsigned> WideBvh::occluded_packet(std::span<const Ray> rays, const Aabb& scene,
+                                                 float magnitude, bool any_angle) const {
+  const int n = static_cast<int>(rays.size());
+  const PacketLoad load(rays.data(), n);
+  if (!coherent(rays.data(), n, load, any_angle)) return std::nullopt;
   Hit unused[kPacketRays];
-  return traverse_packet<true>(nodes_, blocks_, rays.data(), static_cast<int>(rays.size()), scene,
-                               magnitude, unused);
+  return traverse_packet<true>(nodes_, blocks_, rays.data(), n,
+                               packet_constants(load, scene, magnitude), unused);
 }
 
 }  // namespace splitray
