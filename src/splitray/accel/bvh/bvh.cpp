@@ -162,12 +162,10 @@ void Bvh::intersect(std::span<const Ray> rays, std::span<Hit> hits) const {
     const std::size_t n = std::min<std::size_t>(WideBvh::kPacketRays, rays.size() - i);
     const std::span<const Ray> group = rays.subspan(i, n);
     Hit* out = hits.data() + i;
-    if constexpr (WideBvh::kPackets) {
-      if (!nodes_.empty() && wide_.intersect_packet(group, scene_, magnitude_, out)) {
-        for (std::size_t r = 0; r < n; ++r)
-          if (!out[r].found()) out[r] = Hit{};
-        continue;
-      }
+    if (!nodes_.empty() && wide_.intersect_packet(group, scene_, magnitude_, out)) {
+      for (std::size_t r = 0; r < n; ++r)
+        if (!out[r].found()) out[r] = Hit{};
+      continue;
     }
     for (std::size_t r = 0; r < n; ++r) out[r] = intersect(group[r]);
   }
@@ -177,13 +175,11 @@ void Bvh::occluded(std::span<const Ray> rays, std::span<std::uint8_t> result) co
   for (std::size_t i = 0; i < rays.size(); i += WideBvh::kPacketRays) {
     const std::size_t n = std::min<std::size_t>(WideBvh::kPacketRays, rays.size() - i);
     const std::span<const Ray> group = rays.subspan(i, n);
-    if constexpr (WideBvh::kPackets) {
-      const std::optional<unsigned> hit =
-          nodes_.empty() ? std::nullopt : wide_.occluded_packet(group, scene_, magnitude_);
-      if (hit) {
-        for (std::size_t r = 0; r < n; ++r) result[i + r] = (*hit >> r) & 1u;
-        continue;
-      }
+    const std::optional<unsigned> hit =
+        nodes_.empty() ? std::nullopt : wide_.occluded_packet(group, scene_, magnitude_);
+    if (hit) {
+      for (std::size_t r = 0; r < n; ++r) result[i + r] = (*hit >> r) & 1u;
+      continue;
     }
     for (std::size_t r = 0; r < n; ++r) result[i + r] = occluded(group[r]) ? 1 : 0;
   }

@@ -77,21 +77,22 @@ class WideBvh {
   // Closest hit (hit.t = tmax on entry) or any hit, as Bvh::intersect / occluded.
   void intersect(const Ray& ray, const Aabb& scene, float magnitude, Hit& hit) const;
   bool occluded(const Ray& ray, const Aabb& scene, float magnitude) const;
-  // With AVX-512: 1 to kPacketRays coherent rays (the same direction signs, directions within
-  // about 25 degrees of the first's; any directions of the same signs with `any_angle`) walked
-  // together, one SIMD lane each (wide_bvh_packet.cpp), each with the answer of intersect() /
-  // occluded(): hits[i] (t = tmax when nothing is hit), and the rays that are occluded (bit per
-  // ray). False / nullopt, with nothing walked, when the rays are not coherent.
+  // 1 to kPacketRays coherent rays (the same direction signs, directions within about 25
+  // degrees of the first's; any directions of the same signs with `any_angle`) walked together,
+  // one SIMD lane each (wide_bvh_packet.cpp), each with the answer of intersect() / occluded():
+  // hits[i] (t = tmax when nothing is hit), and the rays that are occluded (bit per ray).
+  // False / nullopt, with nothing walked, when the rays are not coherent, and always without
+  // AVX-512 (kPackets).
   static constexpr int kPacketRays = 16;
 #if defined(__AVX512F__)
   static constexpr bool kPackets = true;
+#else
+  static constexpr bool kPackets = false;
+#endif
   bool intersect_packet(std::span<const Ray> rays, const Aabb& scene, float magnitude, Hit* hits,
                         bool any_angle = false) const;
   std::optional<unsigned> occluded_packet(std::span<const Ray> rays, const Aabb& scene,
                                           float magnitude, bool any_angle = false) const;
-#else
-  static constexpr bool kPackets = false;
-#endif
   // intersect(), adding what the ray cost to `counts` (a slower copy of the same walk).
   void intersect_counted(const Ray& ray, const Aabb& scene, float magnitude, Hit& hit,
                          WideBvhCounts& counts) const;

@@ -265,4 +265,19 @@ std::optional<unsigned> WideBvh::occluded_packet(std::span<const Ray> rays, cons
 
 }  // namespace splitray
 
+#else
+
+namespace splitray {
+
+bool WideBvh::intersect_packet(std::span<const Ray>, const Aabb&, float, Hit*, bool) const {
+  return false;
+}
+
+std::optional<unsigned> WideBvh::occluded_packet(std::span<const Ray>, const Aabb&, float,
+                                                 bool) const {
+  return std::nullopt;
+}
+
+}  // namespace splitray
+
 #endif
