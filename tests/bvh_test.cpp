@@ -307,6 +307,30 @@ TEST(HugePageAllocator, AlignsAndKeepsContents) {
   EXPECT_EQ(copy.back(), 2'999'999u);
 }
 
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+TEST(HugePageAllocator, ReusesFreedRangesOfFittingSize) {
+  HugePageAllocator<char> allocator;
+  const std::size_t size = std::size_t{41} << 20;  // 42 MiB ranges: no other test frees one
+  char* const first = allocator.allocate(size);
+  first[0] = 42;
+  first[size - 1] = 43;
+  allocator.deallocate(first, size);
+  // The same range again, with what was written (a range mapped afresh would read zeros).
+  char* const again = allocator.allocate(size - 1000);
+  ASSERT_EQ(again, first);
+  EXPECT_EQ(again[0], 42);
+  EXPECT_EQ(again[size - 1], 43);
+  // Kept ranges serve sizes they fit, at most a quarter larger.
+  char* const larger = allocator.allocate(std::size_t{60} << 20);
+  allocator.deallocate(again, size - 1000);
+  char* const smaller = allocator.allocate(std::size_t{20} << 20);
+  EXPECT_NE(larger, first);
+  EXPECT_NE(smaller, first);
+  allocator.deallocate(smaller, std::size_t{20} << 20);
+  allocator.deallocate(larger, std::size_t{60} << 20);
+}
+#endif
+
 TEST(Bvh, StatsDescribeTheTree) {
   const Reference& ref = reference(vendored_file(kHorse));
   std::map<std::string, AccelStats> stats;
