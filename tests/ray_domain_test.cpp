@@ -90,6 +90,55 @@ TEST(RayDomain, UntraceableRaysMissInEveryStructureAndGoodRaysKeepTheirAnswers) 
   }
 }
 
+TEST(RayDomain, TheBatchedTestOfRaysAsGivenAgreesWithTheRule) {
+  // Every field of a good ray set to values on and beyond the edges of the domain, the ray
+  // placed at every position of batches of 1 to 5 (the SIMD test takes rays two at a time).
+  const auto rule = [](const std::vector<Ray>& rays) {
+    for (const Ray& r : rays)
+      if (!traceable(r) || direction_exponent(r) != 0) return false;
+    return true;
+  };
+  const Ray good{Vec3{1, -2, 3}, Vec3{0.5f, -0.1f, 0.2f}, 0, kInfinity};
+  const float values[] = {kNaN,
+                          kInfinity,
+                          -kInfinity,
+                          0,
+                          -0.0f,
+                          0x1p-2f,
+                          std::nextafter(0x1p-2f, 0.0f),
+                          -0x1p-2f,
+                          0x1p2f,
+                          std::nextafter(0x1p2f, kInfinity),
+                          -0x1p2f,
+                          kMaxRayOrigin,
+                          std::nextafter(kMaxRayOrigin, kInfinity),
+                          -kMaxRayOrigin,
+                          1e-30f};
+  std::size_t cases = 0, accepted = 0;
+  for (int field = 0; field < 8; ++field)
+    for (const float value : values) {
+      Ray odd = good;
+      float* floats = &odd.org.x;
+      floats[field] = value;
+      if (field >= 3 && field < 6) {  // also with the other direction components small
+        for (int other = 3; other < 6; ++other)
+          if (other != field) floats[other] = 0.01f;
+      }
+      for (std::size_t n = 1; n <= 5; ++n)
+        for (std::size_t at = 0; at < n; ++at) {
+          std::vector<Ray> rays(n, good);
+          rays[at] = odd;
+          EXPECT_EQ(all_as_given(rays), rule(rays))
+              << "field " << field << " = " << value << ", ray " << at << " of " << n;
+          ++cases;
+          accepted += rule(rays) ? 1 : 0;
+        }
+    }
+  EXPECT_GT(accepted, cases / 5);  // both answers occur
+  EXPECT_LT(accepted, cases * 4 / 5);
+  EXPECT_TRUE(all_as_given({}));
+}
+
 TEST(RayDomain, DirectionLengthDoesNotChangeTheHit) {
   const auto& tris = horse();
   std::vector<Ray> unit = test::hard_rays(tris, 2048, 7);

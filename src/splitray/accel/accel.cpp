@@ -51,9 +51,7 @@ bool Accel::occluded(const Ray& ray) const {
 // compact copy whose answers are scattered back.
 void Accel::intersect(std::span<const Ray> rays, std::span<Hit> hits) const {
   check_slots(rays.size(), hits.size(), "intersect");
-  const auto as_given = [](const Ray& r) { return traceable(r) && direction_exponent(r) == 0; };
-  if (std::all_of(rays.begin(), rays.end(), as_given))
-    return closest_hits(rays, hits.first(rays.size()));
+  if (all_as_given(rays)) return closest_hits(rays, hits.first(rays.size()));
   std::vector<Ray> kept;
   std::vector<std::size_t> where;
   std::vector<int> exponents;
@@ -73,9 +71,7 @@ void Accel::intersect(std::span<const Ray> rays, std::span<Hit> hits) const {
 
 void Accel::occluded(std::span<const Ray> rays, std::span<std::uint8_t> result) const {
   check_slots(rays.size(), result.size(), "occluded");
-  const auto as_given = [](const Ray& r) { return traceable(r) && direction_exponent(r) == 0; };
-  if (std::all_of(rays.begin(), rays.end(), as_given))
-    return any_hits(rays, result.first(rays.size()));
+  if (all_as_given(rays)) return any_hits(rays, result.first(rays.size()));
   std::vector<Ray> kept;
   std::vector<std::size_t> where;
   for (std::size_t i = 0; i < rays.size(); ++i) {

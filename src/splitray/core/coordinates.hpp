@@ -54,6 +54,11 @@ inline int direction_exponent(const Ray& r) {
   return 1 - e;
 }
 
+// traceable(r) && direction_exponent(r) == 0 for every ray: the batched calls' test for the
+// common case of rays they hand the structures as given (with AVX-512 two rays per vector: the
+// test ray by ray took 5-6 ns a ray, a fifth of a batched primary ray's time).
+bool all_as_given(std::span<const Ray> rays);
+
 // The ray with its direction multiplied by 2^k and its interval divided by it.
 inline Ray scaled_ray(const Ray& r, int k) {
   return Ray{r.org, r.dir * std::ldexp(1.0f, k), std::ldexp(r.tmin, -k), std::ldexp(r.tmax, -k)};
