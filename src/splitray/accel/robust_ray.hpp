@@ -60,7 +60,9 @@ struct RobustRay {
     return is_finite(ray.org) && is_finite(ray.dir) && max_component(abs(ray.dir)) > 0;
   }
 
-  // `scene` bounds every primitive; `magnitude` is coordinate_magnitude(scene).
+  // `scene` bounds every primitive; `magnitude` is coordinate_magnitude(scene). The BVH's
+  // packets repeat these operations for 16 rays at once (packet_constants in
+  // bvh/wide_bvh_packet.cpp): a change here must be made there too.
   RobustRay(const Ray& ray, const Aabb& scene, float magnitude) {
     org = ray.org;
     max_dir = max_component(abs(ray.dir));

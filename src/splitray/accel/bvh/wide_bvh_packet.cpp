@@ -160,7 +160,7 @@ unsigned traverse_packet(std::span<const WideNode> node_span,
   const WideNode* const nodes = node_span.data();
   const TriangleBlock* const blocks = block_span.data();
   int near[3], far[3];
-  for (int a = 0; a < 3; ++a) {  // every ray of a packet has these signs (Bvh::intersect checks)
+  for (int a = 0; a < 3; ++a) {  // every ray of a packet has these signs (coherent() checks)
     const bool negative = std::signbit(rays[0].dir[a]);
     near[a] = negative ? 3 + a : a;
     far[a] = negative ? a : 3 + a;
