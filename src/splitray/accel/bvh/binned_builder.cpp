@@ -13,12 +13,10 @@ namespace splitray {
 
 namespace {
 
-constexpr std::size_t kTaskRefs = 4096;  // subtrees at least this big become tasks
-
 class BinnedBuilder {
  public:
   BinnedBuilder(std::vector<BvhRef>& refs, const BvhBuildOptions& options)
-      : refs_(refs), options_(options) {}
+      : refs_(refs), options_(options), task_refs_(bvh_task_refs(refs.size())) {}
 
   std::unique_ptr<BvhPiece> build_piece(std::size_t begin, std::size_t end, const RefBounds& bounds,
                                         int depth) {
@@ -68,7 +66,7 @@ class BinnedBuilder {
     }
     const std::size_t mid = begin + n_left;
 
-    if (slot == 0 && piece.nodes.size() == 1 && n >= kTaskRefs) {
+    if (slot == 0 && piece.nodes.size() == 1 && n >= task_refs_) {
       piece.nodes[0] = BvhNode::make_interior(bounds.box, axis);
       parallel_invoke([&] { piece.kids[0] = build_piece(begin, mid, left, depth + 1); },
                       [&] { piece.kids[1] = build_piece(mid, end, right, depth + 1); });
@@ -83,6 +81,7 @@ class BinnedBuilder {
 
   std::vector<BvhRef>& refs_;
   const BvhBuildOptions& options_;
+  const std::size_t task_refs_;  // subtrees at least this big become tasks
   std::atomic<std::uint64_t> evals_{0};
 };
 

@@ -27,7 +27,6 @@ namespace splitray {
 
 namespace {
 
-constexpr std::size_t kTaskRefs = 4096;
 constexpr double kGrowth = 1.5;  // at most 1.5 times as many references as input
 
 // A node's references [begin, end) of the array, which it may grow up to cap.
@@ -43,7 +42,8 @@ class SbvhBuilder {
       : tris_(triangles),
         options_(options),
         min_overlap_(options.sbvh_alpha * root.half_area()),
-        refs_(refs) {}
+        refs_(refs),
+        task_refs_(bvh_task_refs(triangles.size())) {}
 
   std::unique_ptr<BvhPiece> build_piece(const Range& range, const RefBounds& bounds, int depth) {
     auto piece = std::make_unique<BvhPiece>();
@@ -198,7 +198,7 @@ class SbvhBuilder {
       std::copy_n(refs_ + range.begin + n_left, moved, refs_ + right.end - moved);
     }
 
-    if (slot == 0 && piece.nodes.size() == 1 && n >= kTaskRefs) {
+    if (slot == 0 && piece.nodes.size() == 1 && n >= task_refs_) {
       piece.nodes[0] = BvhNode::make_interior(bounds.box, axis);
       parallel_invoke([&] { piece.kids[0] = build_piece(left, left_bounds, depth + 1); },
                       [&] { piece.kids[1] = build_piece(right, right_bounds, depth + 1); });
@@ -215,6 +215,7 @@ class SbvhBuilder {
   const BvhBuildOptions& options_;
   float min_overlap_;
   BvhRef* refs_;
+  const std::size_t task_refs_;  // subtrees at least this big become tasks
   std::atomic<std::uint64_t> evals_{0};
 };
 
