@@ -132,10 +132,13 @@ class SbvhBuilder {
     left_refs.clear();
     right_refs.clear();
     const std::size_t n = range.size(), room = range.cap - range.begin;
-    if (!spatial_partition(refs(range), split, left_refs, right_refs, left_bounds, right_bounds) ||
+    RefBounds l, r;  // set only on success: the object split that then runs extends them
+    if (!spatial_partition(refs(range), split, left_refs, right_refs, l, r) ||
         left_refs.size() >= n || right_refs.size() >= n ||
         left_refs.size() + right_refs.size() > room)
       return false;
+    left_bounds = l;
+    right_bounds = r;
     divide(range, left_refs.size(), right_refs.size(), left, right);
     std::copy(left_refs.begin(), left_refs.end(), refs_ + left.begin);
     std::copy(right_refs.begin(), right_refs.end(), refs_ + right.begin);
