@@ -209,26 +209,35 @@ bool walk(const WideNode* nodes, const TriangleBlock* blocks, const Ray& ray, co
       counts.node(n);
       alignas(64) float t_entry[kWideWidth];
       unsigned mask = slab.test(n, tmin, best.t, t_entry);
-      // Ask for every child that will be visited or pushed at once: the memory loads overlap
-      // instead of waiting for each other when the stack is popped.
-      for (unsigned m = mask; m != 0; m &= m - 1) {
-        const int c = std::countr_zero(m);
-        if (n.count[c] == 0)
-          prefetch<sizeof(WideNode)>(&nodes[n.child[c]]);
-        else
-          prefetch<sizeof(TriangleBlock)>(&blocks[n.child[c]]);
-      }
       if (mask != 0) {
-        int i = std::countr_zero(mask);
-        mask &= mask - 1;
-        Entry nearest{n.child[i], n.count[i], t_entry[i]};
-        const int mark = stack.size();
-        while (mask != 0) {
-          i = std::countr_zero(mask);
-          mask &= mask - 1;
-          Entry e{n.child[i], n.count[i], t_entry[i]};
-          if (e.t0 < nearest.t0) std::swap(e, nearest);
-          stack.push_ordered(e, mark);
+        // The children the ray enters, nearest first. Most nodes are entered through one or two
+        // children: those take no loop, and only the count of children is a branch (the
+        // distances are compared into selects), because the walk's time goes mostly to
+        // mispredicted branches (diffuse rays through the faerie took 2.2 times as long as the
+        // same rays repeated, whose branches the CPU learns). Each child is asked for as it is
+        // taken, so the memory loads overlap instead of waiting for each other.
+        const auto enter = [&](unsigned& m) {
+          const int i = std::countr_zero(m);
+          m &= m - 1;
+          const Entry e{n.child[i], n.count[i], t_entry[i]};
+          const char* node = reinterpret_cast<const char*>(nodes + e.child);
+          const char* block = reinterpret_cast<const char*>(blocks + e.child);
+          prefetch<std::max(sizeof(WideNode), sizeof(TriangleBlock))>(e.count == 0 ? node : block);
+          return e;
+        };
+        Entry nearest = enter(mask);
+        if (mask != 0) {
+          const Entry second = enter(mask);
+          const bool closer = second.t0 < nearest.t0;
+          const Entry farther = closer ? nearest : second;
+          nearest = closer ? second : nearest;
+          const int mark = stack.size();
+          stack.push(farther);
+          while (mask != 0) {  // three or more: the others in order on the stack
+            Entry e = enter(mask);
+            if (e.t0 < nearest.t0) std::swap(e, nearest);
+            stack.push_ordered(e, mark);
+          }
         }
         current = nearest;
         continue;
