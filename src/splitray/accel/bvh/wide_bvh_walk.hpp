@@ -45,8 +45,8 @@ struct WideSlab {
 
   explicit WideSlab(const RobustRay& ray) : r(ray) {
     for (int a = 0; a < 3; ++a) {
-      near[a] = r.negative[a] ? 3 + a : a;
-      far[a] = r.negative[a] ? a : 3 + a;
+      near[a] = a + 3 * r.negative[a];  // arithmetic, not a branch on the ray's signs
+      far[a] = a + 3 - 3 * r.negative[a];
       org_near[a] = Lanes::broadcast(r.org_near[a] * r.inv[a]);
       org_far[a] = Lanes::broadcast(r.org_far[a] * r.inv[a]);
       inv[a] = Lanes::broadcast(r.inv[a]);
