@@ -30,15 +30,11 @@ struct WatertightRay {
   int kx, ky, kz;
   float sx, sy, sz;
 
-  // Made without branches on the direction (max_axis's ties, the swap): a diffuse ray's
-  // direction is random, and such branches are mispredicted about half the time.
+  // Made without branches on the direction (max_axis, the swap): a diffuse ray's direction is
+  // random, and such branches are mispredicted about half the time.
   explicit WatertightRay(const Ray& ray) : org(ray.org) {
     const float d[3] = {ray.dir.x, ray.dir.y, ray.dir.z};  // indexed without branches
-    const float ax = std::fabs(d[0]), ay = std::fabs(d[1]), az = std::fabs(d[2]);
-    const int x_ge_y = static_cast<int>(ax >= ay);
-    const int x_largest = x_ge_y & static_cast<int>(ax >= az);
-    const int y_largest = (1 - x_ge_y) & static_cast<int>(ay >= az);
-    kz = 2 - 2 * x_largest - y_largest;  // max_axis(abs(dir))
+    kz = max_axis(abs(ray.dir));
     const int next = kz + 1 - 3 * static_cast<int>(kz == 2), after = 3 - kz - next;
     const int swap = -static_cast<int>(d[kz] < 0);  // keep the winding of the triangles
     kx = next ^ ((next ^ after) & swap);

@@ -48,7 +48,14 @@ inline Vec3 max(const Vec3& a, const Vec3& b) {
 }
 inline Vec3 abs(const Vec3& a) { return {std::fabs(a.x), std::fabs(a.y), std::fabs(a.z)}; }
 inline float max_component(const Vec3& a) { return std::max(a.x, std::max(a.y, a.z)); }
-inline int max_axis(const Vec3& a) { return a.x >= a.y ? (a.x >= a.z ? 0 : 2) : (a.y >= a.z ? 1 : 2); }
+// The axis of the largest component (ties to the lower axis), in integer arithmetic: as `? :`
+// GCC makes branches of it, which a random direction (a diffuse ray's) mispredicts half the time.
+inline int max_axis(const Vec3& a) {
+  const int x_ge_y = static_cast<int>(a.x >= a.y);
+  const int x_largest = x_ge_y & static_cast<int>(a.x >= a.z);
+  const int y_largest = (1 - x_ge_y) & static_cast<int>(a.y >= a.z);
+  return 2 - 2 * x_largest - y_largest;
+}
 inline bool is_finite(const Vec3& a) {
   return std::isfinite(a.x) && std::isfinite(a.y) && std::isfinite(a.z);
 }
