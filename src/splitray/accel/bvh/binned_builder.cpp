@@ -41,7 +41,7 @@ class BinnedBuilder {
   void build(BvhPiece& piece, std::size_t slot, std::size_t begin, std::size_t end,
              const RefBounds& bounds, int depth, std::uint64_t& evals) {
     const std::size_t n = end - begin;
-    if (n <= static_cast<std::size_t>(options_.min_leaf) || depth >= options_.max_depth)
+    if (bvh_leaf_at_once(options_, n, bounds.box, depth))
       return make_leaf(piece, slot, begin, end, bounds.box);
 
     const std::span<BvhRef> refs(refs_.data() + begin, n);

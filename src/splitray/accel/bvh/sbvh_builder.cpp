@@ -160,7 +160,7 @@ class SbvhBuilder {
   void build(BvhPiece& piece, std::size_t slot, const Range& range, const RefBounds& bounds,
              int depth, std::uint64_t& evals) {
     const std::size_t n = range.size(), room = range.cap - range.begin;
-    if (n <= static_cast<std::size_t>(options_.min_leaf) || depth >= options_.max_depth)
+    if (bvh_leaf_at_once(options_, n, bounds.box, depth))
       return make_leaf(piece, slot, range, bounds.box);
 
     const ObjectSplit object = find_object_split(refs(range), bounds, options_, evals);
@@ -181,6 +181,12 @@ class SbvhBuilder {
                               split_spatial(range, spatial, left, right, left_bounds, right_bounds);
     if (spatial_done) {
       axis = spatial.axis;
+    } else if (n <= static_cast<std::size_t>(options_.max_leaf) &&
+               !(object.axis >= 0 && object.cost < leaf_cost)) {
+      // The spatial split that beat the leaf could not be made (in nodes a few float steps
+      // thick its estimate is rounding), and the object split, or halving when every centre
+      // coincides, does not beat the leaf (conference room: 10,203 such splits).
+      return make_leaf(piece, slot, range, bounds.box);
     } else {
       std::size_t n_left = n / 2;
       const std::span<BvhRef> node_refs = refs(range);
