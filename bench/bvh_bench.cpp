@@ -268,6 +268,9 @@ Json traversal_profile(const std::string& builder, const std::string& theirs,
         {"boxes_per_ray", per_ray(counts.boxes)},
         {"leaves_per_ray", per_ray(counts.leaves)},
         {"blocks_per_ray", per_ray(counts.blocks)},
+        {"hit_leaves_per_hit", static_cast<double>(counts.hit_leaves) /
+                                   static_cast<double>(std::max<std::uint64_t>(counts.hits, 1))},
+        {"late_leaves_per_ray", per_ray(counts.late_leaves)},
         {"triangle_lanes_per_ray", per_ray(counts.blocks * kBlockWidth)},
         {"bytes_per_ray", per_ray(counts.nodes * node_bytes + counts.blocks * block_bytes)},
         {"compute_ns_per_ray",
@@ -538,6 +541,9 @@ std::string bvh_markdown(const Json& report) {
   md +=
       "\n**What a ray costs in our wide layout** (per ray: wide nodes visited, child boxes "
       "tested, leaves entered, blocks of eight triangles tested, bytes of nodes and blocks read; "
+      "per ray that hits, the leaves entered that hold the triangle of its closest hit (more than "
+      "one where spatial splits put it in several leaves), and per ray the leaves entered after "
+      "that hit was found; "
       "the time of our single-ray call on one thread, and what its node and block tests take "
       "with their data in the L1 cache: the rest is waiting for memory and the walk's "
       "control. Then what a ray new to the CPU loses, this machine having no counters of "
@@ -546,9 +552,10 @@ std::string bvh_markdown(const Json& report) {
       "spread over the set), and over the same rays each traced 8 times in a row, whose walks the "
       "branch predictor and the caches have then learned).\n\n";
   md +=
-      "| mesh | builder | kind | nodes | boxes | leaves | blocks | bytes | ns per ray | of which "
-      "node and block tests | ours: distinct / repeated ns | Embree: distinct / repeated ns "
-      "|\n|---|---|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|\n";
+      "| mesh | builder | kind | nodes | boxes | leaves | blocks | bytes | leaves with the hit | "
+      "leaves after it | ns per ray | of which node and block tests | ours: distinct / repeated "
+      "ns | Embree: distinct / repeated ns |\n|---|---|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|"
+      "--:|--:|\n";
   for (const Json& mesh : report["meshes"])
     for (const Json& p : mesh["profile"])
       for (const char* kind : {"primary", "diffuse"}) {
@@ -562,12 +569,13 @@ std::string bvh_markdown(const Json& report) {
                 : fmt::format("– | {:.0f}", k["compute_ns_per_ray"].get<double>());
         const Json& f = k["first_walk"];
         md += fmt::format(
-            "| {} | {} | {} | {:.1f} | {:.1f} | {:.1f} | {:.1f} | {:.0f} | {} | {:.0f} / {:.0f} | "
-            "{:.0f} / {:.0f} |\n",
+            "| {} | {} | {} | {:.1f} | {:.1f} | {:.1f} | {:.1f} | {:.0f} | {:.2f} | {:.2f} | {} | "
+            "{:.0f} / {:.0f} | {:.0f} / {:.0f} |\n",
             mesh["name"].get<std::string>(), p["builder"].get<std::string>(), kind,
             k["nodes_per_ray"].get<double>(), k["boxes_per_ray"].get<double>(),
             k["leaves_per_ray"].get<double>(), k["blocks_per_ray"].get<double>(),
-            k["bytes_per_ray"].get<double>(), measured, f["ours_distinct_ns"].get<double>(),
+            k["bytes_per_ray"].get<double>(), k["hit_leaves_per_hit"].get<double>(),
+            k["late_leaves_per_ray"].get<double>(), measured, f["ours_distinct_ns"].get<double>(),
             f["ours_repeated_ns"].get<double>(), f["embree_distinct_ns"].get<double>(),
             f["embree_repeated_ns"].get<double>());
       }

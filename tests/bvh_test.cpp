@@ -359,6 +359,34 @@ TEST(Bvh, StatsDescribeTheTree) {
   EXPECT_LT(*stats["sbvh"].sah_cost, *stats["binned"].sah_cost);
 }
 
+// The counted walk (the benchmark's profile) gives the plain walk's answers, and finds each
+// ray's closest hit in exactly one leaf of the binned tree (every triangle is in one leaf) and
+// in at least one of the SBVH's (spatial splits put some in several).
+TEST(Bvh, CountedWalkFindsEachHitInItsLeaves) {
+  const Reference& ref = reference(vendored_file(kHorse));
+  for (const std::string builder : {"binned", "sbvh"}) {
+    const Bvh bvh = Bvh::build(ref.tris, builder, BvhBuildOptions{});
+    WideBvhCounts counts;
+    std::uint64_t hits = 0;
+    for (std::size_t i = 0; i < ref.rays.size(); ++i) {
+      const Hit hit = bvh.intersect_counted(ref.rays[i], counts);
+      ASSERT_TRUE(same_hit(ref.brute.hits[i], hit)) << builder << " ray " << i;
+      hits += hit.found() ? 1 : 0;
+    }
+    EXPECT_EQ(counts.rays, ref.rays.size());
+    EXPECT_EQ(counts.hits, hits);
+    EXPECT_GT(hits, ref.rays.size() / 4) << builder;
+    if (builder == "binned") {
+      EXPECT_EQ(counts.hit_leaves, hits);
+    } else {
+      EXPECT_GT(counts.hit_leaves, hits);
+    }
+    // Each ray that hits enters the leaf where it finds its hit before it is late.
+    EXPECT_GT(counts.late_leaves, 0u) << builder;
+    EXPECT_LE(counts.late_leaves + hits, counts.leaves) << builder;
+  }
+}
+
 // Every box is no larger than what it holds: an interior node's than its children's, a leaf's
 // than its triangles' (spatial splits clip them). A spatial split that failed once left its
 // sides' bounds behind in the object split's children (the Cornell box's SBVH cost 360 against

@@ -60,9 +60,12 @@ static_assert(sizeof(TriangleBlock) == 320);
 
 // What rays cost in the wide layout, summed over rays (the benchmark's profile): wide nodes
 // visited, child boxes tested in them (non-empty slots), leaves entered, blocks of eight
-// triangles tested.
+// triangles tested; and, of the rays that hit, the leaves entered that hold the triangle of
+// the ray's closest hit (one, unless spatial splits put it in several leaves) and those
+// entered after that hit was found (boxes crossed before it, holding nothing closer).
 struct WideBvhCounts {
   std::uint64_t rays = 0, nodes = 0, boxes = 0, leaves = 0, blocks = 0;
+  std::uint64_t hits = 0, hit_leaves = 0, late_leaves = 0;
 };
 
 class WideBvh {
@@ -93,7 +96,8 @@ class WideBvh {
                         bool any_angle = false) const;
   std::optional<unsigned> occluded_packet(std::span<const Ray> rays, const Aabb& scene,
                                           float magnitude, bool any_angle = false) const;
-  // intersect(), adding what the ray cost to `counts` (a slower copy of the same walk).
+  // intersect(), adding what the ray cost to `counts` (a slower copy of the same walk, after
+  // the plain walk).
   void intersect_counted(const Ray& ray, const Aabb& scene, float magnitude, Hit& hit,
                          WideBvhCounts& counts) const;
 

@@ -24,7 +24,10 @@ void WideBvh::intersect_counted(const Ray& ray, const Aabb& scene, float magnitu
                                 WideBvhCounts& counts) const {
   ++counts.rays;
   if (nodes_.empty()) return;
-  walk<false>(nodes_.data(), blocks_.data(), ray, scene, magnitude, hit, Counting{counts});
+  Hit closest = hit;  // the answer first, so that the counting walk knows which leaves hold it
+  walk<false>(nodes_.data(), blocks_.data(), ray, scene, magnitude, closest);
+  counts.hits += closest.found() ? 1 : 0;
+  walk<false>(nodes_.data(), blocks_.data(), ray, scene, magnitude, hit, Counting{counts, closest});
 }
 
 }  // namespace splitray

@@ -167,19 +167,28 @@ struct Entry {
 // What the plain walk counts: nothing (every call compiles away).
 struct NoCounts {
   void node(const WideNode&) {}
-  void leaf(std::uint32_t) {}
+  void leaf(const TriangleBlock*, std::uint32_t, const Hit&) {}
 };
 
-// What the counting walk adds up for the benchmark's profile (bench/bvh_bench.cpp).
+// What the counting walk adds up for the benchmark's profile (bench/bvh_bench.cpp); `closest`
+// is the ray's answer, found by a plain walk first.
 struct Counting {
   WideBvhCounts& c;
+  Hit closest;
   void node(const WideNode& n) {
     ++c.nodes;
     for (int i = 0; i < kWideWidth; ++i) c.boxes += n.planes[0][i] <= n.planes[3][i] ? 1 : 0;
   }
-  void leaf(std::uint32_t blocks) {
+  // A leaf of `count` blocks entered with `best` the closest hit so far.
+  void leaf(const TriangleBlock* blocks, std::uint32_t count, const Hit& best) {
     ++c.leaves;
-    c.blocks += blocks;
+    c.blocks += count;
+    if (!closest.found()) return;
+    if (best.prim == closest.prim && best.t == closest.t) ++c.late_leaves;
+    bool holds = false;
+    for (std::uint32_t b = 0; b < count; ++b)
+      for (const std::uint32_t id : blocks[b].id) holds |= id == closest.prim;
+    c.hit_leaves += holds ? 1 : 0;
   }
 };
 
@@ -244,7 +253,7 @@ bool walk(const WideNode* nodes, const TriangleBlock* blocks, const Ray& ray, co
       }
     } else {  // a leaf: its blocks of eight triangles
       if (!wb) wb.emplace(w.emplace(ray));
-      counts.leaf(current.count);
+      counts.leaf(blocks + current.child, current.count, best);
       if (test_leaf<AnyHit>(blocks + current.child, current.count, *w, *wb, tmin, best) && AnyHit)
         return true;
     }
