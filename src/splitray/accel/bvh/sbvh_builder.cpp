@@ -13,7 +13,6 @@
 
 #include <algorithm>
 #include <atomic>
-#include <limits>
 #include <memory>
 #include <new>
 
@@ -167,25 +166,23 @@ class SbvhBuilder {
     SpatialSplit spatial;
     if (room > n && (object.axis < 0 || spatial_may_pay(object, bounds.box)))
       spatial = find_spatial_split(refs(range), tris_, bounds.box, options_, evals);
-    const float best_cost = std::min(
-        object.axis >= 0 ? object.cost : std::numeric_limits<float>::infinity(), spatial.cost);
+    // A node that may be a leaf is split only by a split cheaper than the leaf: the spatial
+    // split when it beats both, else the object split (or halving, when every centre
+    // coincides). A spatial split can fail to be made (in nodes a few float steps thick its
+    // estimate is rounding); the object split then had to beat the leaf too, which it was once
+    // not asked (conference room: 10,203 such splits).
+    const bool small = n <= static_cast<std::size_t>(options_.max_leaf);
     const float leaf_cost = bvh_leaf_cost(options_, n);
-    if (n <= static_cast<std::size_t>(options_.max_leaf) && !(best_cost < leaf_cost))
-      return make_leaf(piece, slot, range, bounds.box);
-
     Range left, right;
     RefBounds left_bounds, right_bounds;
     int axis = 0;
     const bool spatial_done = spatial.axis >= 0 &&
                               (object.axis < 0 || spatial.cost < object.cost) &&
+                              (!small || spatial.cost < leaf_cost) &&
                               split_spatial(range, spatial, left, right, left_bounds, right_bounds);
     if (spatial_done) {
       axis = spatial.axis;
-    } else if (n <= static_cast<std::size_t>(options_.max_leaf) &&
-               !(object.axis >= 0 && object.cost < leaf_cost)) {
-      // The spatial split that beat the leaf could not be made (in nodes a few float steps
-      // thick its estimate is rounding), and the object split, or halving when every centre
-      // coincides, does not beat the leaf (conference room: 10,203 such splits).
+    } else if (small && !(object.axis >= 0 && object.cost < leaf_cost)) {
       return make_leaf(piece, slot, range, bounds.box);
     } else {
       std::size_t n_left = n / 2;
