@@ -1,8 +1,9 @@
 #pragma once
 // The watertight test of triangle.hpp on eight triangles at once, for the leaves of the
 // kd-tree and the BVH, whatever their layout (a loader gives the eight values of one vertex
-// coordinate). Lane by lane it performs exactly the scalar test's float operations in the same
-// order (the project builds without FMA contraction), so t, u and v are bit-identical to it;
+// coordinate), and on sixteen rays at once for the BVH's packets. Lane by lane it performs
+// exactly the scalar test's float operations in the same order (the project builds without FMA
+// contraction), so t, u and v are bit-identical to it;
 // the lanes the scalar test decides in double (an edge function exactly zero, or a determinant
 // small against its products) are returned in `scalar` for the caller to hand to it.
 #include "splitray/core/triangle.hpp"
@@ -12,6 +13,49 @@
 
 namespace splitray {
 
+// The watertight test's float operations on a vector of (ray, triangle) pairs, a pair per
+// lane: rel[vertex][i] is coordinate k_i of the vertex minus the ray origin's (the ray's axis
+// order: x, y, then z, the largest direction component), sx, sy, sz the rays' shear. Returns
+// the lanes of `valid` hit with tmin <= t <= tmax, their t, u and v stored in the arrays;
+// `scalar` gets the lanes of `valid` the scalar test must decide.
+template <class F>
+[[gnu::always_inline]] inline unsigned watertight_lanes(const F (&rel)[3][3], F sx, F sy, F sz,
+                                                        unsigned valid, F tmin, F tmax,
+                                                        float* t_out, float* u_out, float* v_out,
+                                                        unsigned& scalar) {
+  const F az0 = rel[0][2], bz0 = rel[1][2], cz0 = rel[2][2];
+  const F ax = rel[0][0] - sx * az0, ay = rel[0][1] - sy * az0;
+  const F bx = rel[1][0] - sx * bz0, by = rel[1][1] - sy * bz0;
+  const F cx = rel[2][0] - sx * cz0, cy = rel[2][1] - sy * cz0;
+  const F u1 = cx * by, u2 = cy * bx;
+  const F v1 = ax * cy, v2 = ay * cx;
+  const F w1 = bx * ay, w2 = by * ax;
+  const F u = u1 - u2, v = v1 - v2, w = w1 - w2;
+  const F zero = F::zero();
+  const unsigned edge = ((u == zero) | (v == zero) | (w == zero)).bits() & valid;
+  scalar = edge;
+  const unsigned negative = ((u < zero) | (v < zero) | (w < zero)).bits();
+  const unsigned positive = ((u > zero) | (v > zero) | (w > zero)).bits();
+  unsigned inside = valid & ~edge & ~(negative & positive);
+  if (!inside) return 0;
+  const F det = u + v + w;
+  const F magnitude = abs(u1) + abs(u2) + (abs(v1) + abs(v2)) + (abs(w1) + abs(w2));
+  const unsigned ill = (F::broadcast(8.0f) * abs(det) < magnitude).bits();
+  scalar |= ill & inside;
+  inside &= ~ill;
+  if (!inside) return 0;
+  const F t_scaled = u * (sz * az0) + v * (sz * bz0) + w * (sz * cz0);
+  const F inv_det = F::broadcast(1.0f) / det;
+  const F t = t_scaled * inv_det;
+  const unsigned hits = ((det != zero) & ((t >= tmin) & (t <= tmax))).bits() & inside;
+  if (!hits) return 0;
+  t.storeu(t_out);
+  (v * inv_det).storeu(u_out);
+  (w * inv_det).storeu(v_out);
+  return hits;
+}
+
+// One ray against eight triangles, a triangle per lane.
 class Watertight8 {
  public:
   explicit Watertight8(const WatertightRay& r) : k_{r.kx, r.ky, r.kz} {
@@ -23,45 +67,16 @@ class Watertight8 {
   }
 
   // load(vertex, axis) -> the eight lanes' coordinate `axis` (0-2) of vertex 0-2 (a Float8 or
-  // __m256). Returns the lanes of `valid` hit with tmin <= t <= tmax, their t, u and v stored in
-  // the arrays; `scalar` gets the lanes of `valid` the scalar test must decide.
+  // __m256); the rest as watertight_lanes.
   template <class Load>
   unsigned test(const Load& load, unsigned valid, float tmin, float tmax, float* t_out,
                 float* u_out, float* v_out, unsigned& scalar) const {
     using simd::Float8;
-    const auto rel = [&](int vertex, int i) { return Float8(load(vertex, k_[i])) - org_[i]; };
-    const Float8 az0 = rel(0, 2), bz0 = rel(1, 2), cz0 = rel(2, 2);
-    const Float8 ax = rel(0, 0) - sx_ * az0, ay = rel(0, 1) - sy_ * az0;
-    const Float8 bx = rel(1, 0) - sx_ * bz0, by = rel(1, 1) - sy_ * bz0;
-    const Float8 cx = rel(2, 0) - sx_ * cz0, cy = rel(2, 1) - sy_ * cz0;
-    const Float8 u1 = cx * by, u2 = cy * bx;
-    const Float8 v1 = ax * cy, v2 = ay * cx;
-    const Float8 w1 = bx * ay, w2 = by * ax;
-    const Float8 u = u1 - u2, v = v1 - v2, w = w1 - w2;
-    const Float8 zero = Float8::zero();
-    const unsigned edge = ((u == zero) | (v == zero) | (w == zero)).bits() & valid;
-    scalar = edge;
-    const unsigned negative = ((u < zero) | (v < zero) | (w < zero)).bits();
-    const unsigned positive = ((u > zero) | (v > zero) | (w > zero)).bits();
-    unsigned inside = valid & ~edge & ~(negative & positive);
-    if (!inside) return 0;
-    const Float8 det = u + v + w;
-    const Float8 magnitude = abs(u1) + abs(u2) + (abs(v1) + abs(v2)) + (abs(w1) + abs(w2));
-    const unsigned ill = (Float8::broadcast(8.0f) * abs(det) < magnitude).bits();
-    scalar |= ill & inside;
-    inside &= ~ill;
-    if (!inside) return 0;
-    const Float8 t_scaled = u * (sz_ * az0) + v * (sz_ * bz0) + w * (sz_ * cz0);
-    const Float8 inv_det = Float8::broadcast(1.0f) / det;
-    const Float8 t = t_scaled * inv_det;
-    const unsigned hits =
-        ((det != zero) & ((t >= Float8::broadcast(tmin)) & (t <= Float8::broadcast(tmax)))).bits() &
-        inside;
-    if (!hits) return 0;
-    t.storeu(t_out);
-    (v * inv_det).storeu(u_out);
-    (w * inv_det).storeu(v_out);
-    return hits;
+    Float8 rel[3][3];
+    for (int vertex = 0; vertex < 3; ++vertex)
+      for (int i = 0; i < 3; ++i) rel[vertex][i] = Float8(load(vertex, k_[i])) - org_[i];
+    return watertight_lanes(rel, sx_, sy_, sz_, valid, Float8::broadcast(tmin),
+                            Float8::broadcast(tmax), t_out, u_out, v_out, scalar);
   }
 
  private:
@@ -69,6 +84,64 @@ class Watertight8 {
   simd::Float8 org_[3];  // org_[i] = origin[k_[i]]
   simd::Float8 sx_, sy_, sz_;
 };
+
+#if defined(__AVX512F__)
+// One triangle against sixteen rays, a ray per lane (Wald, Slusallek, Benthin & Wagner 2001;
+// Embree's packet triangle tests), for packets whose rays share the watertight test's axis
+// order; each lane computes WatertightRay's constants and the test with its float operations.
+class WatertightPacket {
+ public:
+  using F = simd::Float16;
+  // The rays' origins and directions, a lane each, and the axis order they share.
+  WatertightPacket(const F (&org)[3], const F (&dir)[3], const int (&k)[3]) : k_{k[0], k[1], k[2]} {
+    for (int i = 0; i < 3; ++i) org_[i] = org[k_[i]];
+    sx_ = dir[k_[0]] / dir[k_[2]];
+    sy_ = dir[k_[1]] / dir[k_[2]];
+    sz_ = F::broadcast(1.0f) / dir[k_[2]];
+  }
+  // The axis order of WatertightRay for each lane's direction when the lanes of `lanes` share
+  // one, else false.
+  static bool shared_axes(const F (&dir)[3], unsigned lanes, int (&k)[3]);
+
+  unsigned test(const Triangle& tri, unsigned valid, F tmin, F tmax, float* t_out, float* u_out,
+                float* v_out, unsigned& scalar) const {
+    const Vec3 vertex[3] = {tri.v0, tri.v1, tri.v2};
+    F rel[3][3];
+    for (int j = 0; j < 3; ++j)
+      for (int i = 0; i < 3; ++i) rel[j][i] = F::broadcast(vertex[j][k_[i]]) - org_[i];
+    return watertight_lanes(rel, sx_, sy_, sz_, valid, tmin, tmax, t_out, u_out, v_out, scalar);
+  }
+
+ private:
+  int k_[3];
+  F org_[3];
+  F sx_, sy_, sz_;
+};
+
+inline bool WatertightPacket::shared_axes(const F (&dir)[3], unsigned lanes, int (&k)[3]) {
+  // max_axis (vec.hpp) lane by lane: x when |x| >= |y| and |x| >= |z|, else y when |y| >= |z|.
+  const F ax = abs(dir[0]), ay = abs(dir[1]), az = abs(dir[2]);
+  const unsigned x_ge_y = (ax >= ay).bits();
+  const unsigned x_largest = x_ge_y & (ax >= az).bits() & lanes;
+  const unsigned y_largest = ~x_ge_y & (ay >= az).bits() & lanes;
+  int kz;
+  if (x_largest == lanes)
+    kz = 0;
+  else if (y_largest == lanes)
+    kz = 1;
+  else if ((x_largest | y_largest) == 0)
+    kz = 2;
+  else
+    return false;
+  const unsigned negative = (dir[kz] < F::zero()).bits() & lanes;
+  if (negative != 0 && negative != lanes) return false;
+  const int next = kz == 2 ? 0 : kz + 1, after = 3 - kz - next;
+  k[0] = negative != 0 ? after : next;
+  k[1] = negative != 0 ? next : after;
+  k[2] = kz;
+  return true;
+}
+#endif
 
 }  // namespace splitray
 #endif
