@@ -103,12 +103,15 @@ class WatertightPacket {
   // one, else false.
   static bool shared_axes(const F (&dir)[3], unsigned lanes, int (&k)[3]);
 
-  unsigned test(const Triangle& tri, unsigned valid, F tmin, F tmax, float* t_out, float* u_out,
-                float* v_out, unsigned& scalar) const {
-    const Vec3 vertex[3] = {tri.v0, tri.v1, tri.v2};
+  // coordinate(vertex, axis) -> that coordinate of the triangle (0-2 each), a float broadcast to
+  // every lane; the rest as watertight_lanes.
+  template <class Coordinate>
+  unsigned test(const Coordinate& coordinate, unsigned valid, F tmin, F tmax, float* t_out,
+                float* u_out, float* v_out, unsigned& scalar) const {
     F rel[3][3];
-    for (int j = 0; j < 3; ++j)
-      for (int i = 0; i < 3; ++i) rel[j][i] = F::broadcast(vertex[j][k_[i]]) - org_[i];
+    for (int vertex = 0; vertex < 3; ++vertex)
+      for (int i = 0; i < 3; ++i)
+        rel[vertex][i] = F::broadcast(coordinate(vertex, k_[i])) - org_[i];
     return watertight_lanes(rel, sx_, sy_, sz_, valid, tmin, tmax, t_out, u_out, v_out, scalar);
   }
 
