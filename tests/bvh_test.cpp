@@ -8,6 +8,7 @@
 #include <span>
 
 #include "hierarchy_oracle.hpp"
+#include "hostile_geometry.hpp"
 #include "splitray/accel/bvh/kd_top_bvh.hpp"
 #include "splitray/accel/bvh/object_split.hpp"
 #include "splitray/accel/robust_ray.hpp"
@@ -119,6 +120,12 @@ TEST(Bvh, PacketsMatchBrute) {
   const Reference& ref = reference(vendored_file(kHorse));
   std::vector<std::pair<std::string, std::vector<Triangle>>> cases = {
       {"horse", ref.tris}, {"plane grid", grid_in_plane(24)}};
+  // Hostile geometry (slivers, coplanar and duplicated triangles, a few ulps thick), where the
+  // packets' leaves are tested triangle by triangle against many rays at shared edges.
+  for (int i = 0; i < 8; ++i) {
+    test::HostileMesh mesh = test::hostile_mesh(0x26, i);
+    cases.emplace_back(mesh.name, std::move(mesh.tris));
+  }
   for (const auto& [name, tris] : cases) {
     const std::vector<Ray> rays = coherent_groups(tris, 400);
     const Answers brute = brute_answers(tris, rays);
