@@ -197,11 +197,13 @@ TEST(Bvh, PacketsTakeOnlyCoherentRays) {
       return closest;
     };
     const Vec3 along{1, 0.1f, 0.1f};
-    EXPECT_TRUE(takes(rays_towards(along, along * 3.0f), false));      // same direction
-    EXPECT_FALSE(takes(rays_towards(along, {1, 1.5f, 0.1f}), false));  // 50 degrees apart
-    EXPECT_TRUE(takes(rays_towards(along, {1, 1.5f, 0.1f}), true));    // ... allowed
-    EXPECT_FALSE(takes(rays_towards(along, {1, -0.1f, 0.1f}), true));  // other y sign
-    EXPECT_FALSE(takes(rays_towards(along, {-1, 0.1f, 0.1f}), true));  // other x sign
+    EXPECT_TRUE(takes(rays_towards(along, along * 3.0f), false));       // same direction
+    EXPECT_TRUE(takes(rays_towards(along, {1, 0.18f, 0.1f}), false));   // 4.5 degrees apart
+    EXPECT_FALSE(takes(rays_towards(along, {1, 0.38f, 0.1f}), false));  // 15 degrees apart
+    EXPECT_FALSE(takes(rays_towards(along, {1, 1.5f, 0.1f}), false));   // 50 degrees apart
+    EXPECT_TRUE(takes(rays_towards(along, {1, 1.5f, 0.1f}), true));     // ... allowed
+    EXPECT_FALSE(takes(rays_towards(along, {1, -0.1f, 0.1f}), true));   // other y sign
+    EXPECT_FALSE(takes(rays_towards(along, {-1, 0.1f, 0.1f}), true));   // other x sign
   }
 }
 

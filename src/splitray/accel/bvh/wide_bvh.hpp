@@ -80,7 +80,7 @@ class WideBvh {
   // Closest hit (hit.t = tmax on entry) or any hit, as Bvh::intersect / occluded.
   void intersect(const Ray& ray, const Aabb& scene, float magnitude, Hit& hit) const;
   bool occluded(const Ray& ray, const Aabb& scene, float magnitude) const;
-  // 1 to kPacketRays coherent rays (the same direction signs, directions within about 25
+  // 1 to kPacketRays coherent rays (the same direction signs, directions within about 10
   // degrees of the first's; any directions of the same signs with `any_angle`) walked together,
   // one SIMD lane each (wide_bvh_packet.cpp), each with the answer of intersect() / occluded():
   // hits[i] (t = tmax when nothing is hit), and the rays that are occluded (bit per ray).
