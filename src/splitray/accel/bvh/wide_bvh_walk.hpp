@@ -204,10 +204,13 @@ bool walk(const WideNode* nodes, const TriangleBlock* blocks, const Ray& ray, co
           float magnitude, Hit& hit, Counts counts = {}) {
   const RobustRay r(ray, scene, magnitude);
   const WideSlab slab(r);
-  // The triangle test's constants are made at the first leaf: many short rays (diffuse rays
-  // leaving a surface) never reach one.
+  // The triangle test's constants (three divisions): at once for a ray that starts inside the
+  // scene's box, which reaches the leaf it starts in (a ray leaving a surface), so that their
+  // latency overlaps the first nodes' (diffuse rays 0-4% faster); else at the first leaf, as
+  // rays from a camera outside often miss everything (made at once, primary rays 5% slower).
   std::optional<WatertightRay> w;
   std::optional<WatertightBlock> wb;
+  if (r.inside) wb.emplace(w.emplace(ray));
   const float tmin = ray.tmin;
   Hit best = hit;  // best.t: the far end of every test (tmax for an any-hit query)
   TraversalStack<Entry, kStackSize> stack;
