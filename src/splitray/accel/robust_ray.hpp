@@ -45,6 +45,19 @@ inline float coordinate_magnitude(const Aabb& box) {
 inline float max_keep(float acc, float x) { return acc < x ? x : acc; }
 inline float min_keep(float acc, float x) { return x < acc ? x : acc; }
 
+// Whether the ray starts in `box` (as a ray leaving a surface of the scene does): SSE compares
+// of the rows RobustRay loads too.
+inline bool starts_inside(const Ray& ray, const Aabb& box) {
+#if defined(__SSE2__)
+  const __m128 o = _mm_setr_ps(ray.org.x, ray.org.y, ray.org.z, 0.0f);
+  const __m128 lo = _mm_setr_ps(box.lo.x, box.lo.y, box.lo.z, 0.0f);
+  const __m128 hi = _mm_setr_ps(box.hi.x, box.hi.y, box.hi.z, 0.0f);
+  return _mm_movemask_ps(_mm_and_ps(_mm_cmple_ps(lo, o), _mm_cmple_ps(o, hi))) == 0xf;
+#else
+  return box.contains(ray.org);
+#endif
+}
+
 struct RobustRay {
   Vec3 org;
   Vec3 inv;                // 1 / dir, finite (see above), signed like dir
@@ -52,7 +65,6 @@ struct RobustRay {
   int negative[3];         // 1 when the direction component is negative (or -0)
   float delta;             // the bound, in space
   float max_dir;           // max |dir|
-  bool inside;             // the origin lies in the scene's box (a ray leaving a surface)
 
   // False for rays with a NaN, infinite or zero direction or origin, which have no finite
   // inverse or bound (the kd-tree tests every reference for them; the Accel interface never
@@ -74,11 +86,10 @@ struct RobustRay {
     const __m128 o = _mm_setr_ps(ray.org.x, ray.org.y, ray.org.z, 0.0f);
     const __m128 d = _mm_setr_ps(ray.dir.x, ray.dir.y, ray.dir.z, 1.0f);
     const __m128 sign = _mm_set1_ps(-0.0f);
-    const __m128 lo = _mm_setr_ps(scene.lo.x, scene.lo.y, scene.lo.z, 0.0f);
-    const __m128 hi = _mm_setr_ps(scene.hi.x, scene.hi.y, scene.hi.z, 0.0f);
-    inside = _mm_movemask_ps(_mm_and_ps(_mm_cmple_ps(lo, o), _mm_cmple_ps(o, hi))) == 0xf;
-    const __m128 to_lo = _mm_andnot_ps(sign, _mm_sub_ps(o, lo));
-    const __m128 to_hi = _mm_andnot_ps(sign, _mm_sub_ps(o, hi));
+    const __m128 to_lo =
+        _mm_andnot_ps(sign, _mm_sub_ps(o, _mm_setr_ps(scene.lo.x, scene.lo.y, scene.lo.z, 0.0f)));
+    const __m128 to_hi =
+        _mm_andnot_ps(sign, _mm_sub_ps(o, _mm_setr_ps(scene.hi.x, scene.hi.y, scene.hi.z, 0.0f)));
     alignas(16) float far[4];
     _mm_store_ps(far, _mm_max_ps(to_lo, to_hi));
     delta = 0x1p-18f * (far[0] + far[1] + far[2] + magnitude);
@@ -97,7 +108,6 @@ struct RobustRay {
     org_near = {near4[0], near4[1], near4[2]};
     org_far = {far4[0], far4[1], far4[2]};
 #else
-    inside = scene.contains(ray.org);
     const Vec3 far = max(abs(ray.org - scene.lo), abs(ray.org - scene.hi));
     delta = 0x1p-18f * (far.x + far.y + far.z + magnitude);
     for (int a = 0; a < 3; ++a) {

@@ -210,7 +210,7 @@ bool walk(const WideNode* nodes, const TriangleBlock* blocks, const Ray& ray, co
   // rays from a camera outside often miss everything (made at once, primary rays 5% slower).
   std::optional<WatertightRay> w;
   std::optional<WatertightBlock> wb;
-  if (r.inside) wb.emplace(w.emplace(ray));
+  if (starts_inside(ray, scene)) wb.emplace(w.emplace(ray));
   const float tmin = ray.tmin;
   Hit best = hit;  // best.t: the far end of every test (tmax for an any-hit query)
   TraversalStack<Entry, kStackSize> stack;
