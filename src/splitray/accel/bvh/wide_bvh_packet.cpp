@@ -178,9 +178,10 @@ int distinct_lanes(const TriangleBlock& block) {
 // 16-lane test per triangle) rather than ray by ray (an 8-lane test per block): whichever makes
 // fewer tests. (Choosing the first from 0.75, 1.5 or 2 times as many tests measured the same or
 // slower; so did an 8-lane test for leaves entered by at most eight rays.)
-bool transposed(const Entry& leaf, const TriangleBlock* blocks) {
-  const int triangles = static_cast<int>(leaf.count - 1) * kBlockWidth +
-                        distinct_lanes(blocks[leaf.child + leaf.count - 1]);
+// `last_lanes` gets the distinct triangles of the leaf's last block.
+bool transposed(const Entry& leaf, const TriangleBlock* blocks, int& last_lanes) {
+  last_lanes = distinct_lanes(blocks[leaf.child + leaf.count - 1]);
+  const int triangles = static_cast<int>(leaf.count - 1) * kBlockWidth + last_lanes;
   return triangles <= std::popcount(leaf.rays) * static_cast<int>(leaf.count);
 }
 
@@ -245,12 +246,12 @@ unsigned traverse_packet(std::span<const WideNode> node_span,
         current = nearest;
         continue;
       }
-    } else if (p.triangles && transposed(current, blocks)) {
+    } else if (int last_lanes = 0; p.triangles && transposed(current, blocks, last_lanes)) {
       // a leaf entered by many rays: its triangles one at a time against all of them
       const unsigned rays_in = current.rays & live;
       for (std::uint32_t b = 0; b < current.count; ++b) {
         const TriangleBlock& block = blocks[current.child + b];
-        const int lanes = b + 1 < current.count ? kBlockWidth : distinct_lanes(block);
+        const int lanes = b + 1 < current.count ? kBlockWidth : last_lanes;
         for (int lane = 0; lane < lanes; ++lane) {
           alignas(64) float t[kLanes], u[kLanes], v[kLanes];
           unsigned scalar;
