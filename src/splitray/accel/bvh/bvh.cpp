@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "splitray/accel/bvh/object_split.hpp"
 #include "splitray/accel/robust_ray.hpp"
 #include "splitray/accel/sah_cost.hpp"
 #include "splitray/core/errors.hpp"
@@ -24,8 +25,10 @@ BvhBuildOptions BvhBuildOptions::from(const BuildConfig& config) {
 std::vector<std::string> Bvh::builder_names() { return {"binned", "sbvh", "embree"}; }
 
 Bvh Bvh::build(std::span<const Triangle> triangles, const std::string& builder,
-               const BvhBuildOptions& options) {
+               const BvhBuildOptions& given) {
   std::vector<BvhRef> refs = make_prim_refs(triangles);
+  BvhBuildOptions options = given;
+  options.measure = SplitMeasure::interior(ref_bounds(refs).box);
   BvhBuildResult result;
   if (builder == "binned")
     result = build_bvh_binned(triangles, std::move(refs), options);

@@ -170,6 +170,7 @@ Bvh build_top_bvh(std::span<const Triangle> triangles, std::span<const TopCell> 
   const int depth = top_depth(cells, 0);
   BvhBuildOptions leaf_options = options;
   leaf_options.max_depth = std::max(1, std::min(options.max_depth, 64) - depth);
+  leaf_options.measure = SplitMeasure::interior(cells[0].box);  // as Bvh::build, for the scene
   std::vector<std::unique_ptr<BvhPiece>> expanded(leaf_cells.size());
   parallel_for_each_index(leaf_cells.size(), [&](std::size_t l) {
     if (refs[l].empty()) return;

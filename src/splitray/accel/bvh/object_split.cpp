@@ -20,15 +20,19 @@ constexpr std::size_t kChunkRefs = 16384;
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
 #if defined(__SSE2__)
-// Half areas of three boxes at once (lane a: the box of axis a), with the operations of
-// Aabb::half_area in the same order, so each lane equals it bit for bit.
-inline __m128 half_areas(const __m128 lo[3], const __m128 hi[3]) {
+// The measures (SplitMeasure) of three boxes at once (lane a: the box of axis a), with the
+// operations of Aabb::half_area and SplitMeasure in the same order, so each lane equals them bit
+// for bit.
+inline __m128 measures(const __m128 lo[3], const __m128 hi[3], const SplitMeasure& m) {
   const __m128 e0 = _mm_sub_ps(hi[0], lo[0]), e1 = _mm_sub_ps(hi[1], lo[1]),
                e2 = _mm_sub_ps(hi[2], lo[2]), zero = _mm_setzero_ps();
   const __m128 t0 = _mm_unpacklo_ps(e0, e1), t1 = _mm_unpackhi_ps(e0, e1);
   const __m128 t2 = _mm_unpacklo_ps(e2, zero), t3 = _mm_unpackhi_ps(e2, zero);
   const __m128 x = _mm_movelh_ps(t0, t2), y = _mm_movehl_ps(t2, t0), z = _mm_movelh_ps(t1, t3);
-  return _mm_add_ps(_mm_add_ps(_mm_mul_ps(x, y), _mm_mul_ps(y, z)), _mm_mul_ps(z, x));
+  const __m128 area = _mm_add_ps(_mm_add_ps(_mm_mul_ps(x, y), _mm_mul_ps(y, z)), _mm_mul_ps(z, x));
+  if (m.volume_weight == 0) return area;
+  const __m128 volume = _mm_mul_ps(_mm_mul_ps(x, y), z);
+  return _mm_add_ps(area, _mm_mul_ps(_mm_set1_ps(m.volume_weight), volume));
 }
 #endif
 
@@ -141,8 +145,9 @@ ObjectSplit ObjectBins::best(const CenterBins& map, std::size_t n, const Aabb& b
       hi[a] = _mm_max_ps(hi[a], _mm_load_ps(box_[i][a].hi));
     }
   };
-  // Right to left: the area and count right of each boundary, the three axes in three lanes.
-  __m128 right_area[kMaxObjectBins];
+  // Right to left: the measure and count right of each boundary, the axes in three lanes.
+  const SplitMeasure& measure = options.measure;
+  __m128 right_measure[kMaxObjectBins];
   __m128i right_count[kMaxObjectBins];
   __m128 lo[3], hi[3];
   for (int a = 0; a < 3; ++a) lo[a] = _mm_set1_ps(kInf), hi[a] = _mm_set1_ps(-kInf);
@@ -150,14 +155,14 @@ ObjectSplit ObjectBins::best(const CenterBins& map, std::size_t n, const Aabb& b
   for (int i = count_ - 1; i > 0; --i) {
     count = _mm_add_epi32(count, bin_counts(i));
     extend(lo, hi, i);
-    right_area[i] = half_areas(lo, hi);
+    right_measure[i] = measures(lo, hi, measure);
     right_count[i] = count;
   }
   // Left to right: bvh_split_cost's operations lane by lane; the first least cost per axis.
-  const float parent_area = std::max(box.half_area(), std::numeric_limits<float>::min());
+  const float parent_measure = std::max(measure(box), std::numeric_limits<float>::min());
   const __m128 kt = _mm_set1_ps(options.traversal_cost),
                ki = _mm_set1_ps(options.intersection_cost);
-  const __m128 pa = _mm_set1_ps(parent_area), inf = _mm_set1_ps(kInf);
+  const __m128 pa = _mm_set1_ps(parent_measure), inf = _mm_set1_ps(kInf);
   const int shift = leaf_block_shift(options);
   const __m128i round = _mm_set1_epi32((1 << shift) - 1), zero = _mm_setzero_si128();
   const __m128i shift_count = _mm_cvtsi32_si128(shift);
@@ -169,14 +174,14 @@ ObjectSplit ObjectBins::best(const CenterBins& map, std::size_t n, const Aabb& b
   for (int i = 0; i < count_ - 1; ++i) {
     count = _mm_add_epi32(count, bin_counts(i));
     extend(lo, hi, i);
-    const __m128 left_area = half_areas(lo, hi);
+    const __m128 left_measure = measures(lo, hi, measure);
     const __m128i right = right_count[i + 1];
     const __m128 tests_left =
         _mm_cvtepi32_ps(_mm_srl_epi32(_mm_add_epi32(count, round), shift_count));
     const __m128 tests_right =
         _mm_cvtepi32_ps(_mm_srl_epi32(_mm_add_epi32(right, round), shift_count));
-    const __m128 sum =
-        _mm_add_ps(_mm_mul_ps(left_area, tests_left), _mm_mul_ps(right_area[i + 1], tests_right));
+    const __m128 sum = _mm_add_ps(_mm_mul_ps(left_measure, tests_left),
+                                  _mm_mul_ps(right_measure[i + 1], tests_right));
     __m128 cost = _mm_add_ps(kt, _mm_div_ps(_mm_mul_ps(ki, sum), pa));
     const __m128i empty = _mm_or_si128(_mm_cmpeq_epi32(count, zero), _mm_cmpeq_epi32(right, zero));
     const __m128 valid = _mm_castsi128_ps(_mm_andnot_si128(empty, _mm_set1_epi32(-1)));
@@ -249,7 +254,8 @@ ObjectSplit ObjectBins::best(const CenterBins& map, std::size_t n, const Aabb& b
   };
   ObjectSplit best;
   best.cost = kInf;
-  const float parent_area = std::max(box.half_area(), std::numeric_limits<float>::min());
+  const SplitMeasure& measure = options.measure;
+  const float parent_measure = std::max(measure(box), std::numeric_limits<float>::min());
   std::array<Aabb, kMaxObjectBins> right_box;
   for (int a = 0; a < 3; ++a) {
     if (map.scale[a] == 0) continue;
@@ -263,8 +269,8 @@ ObjectSplit ObjectBins::best(const CenterBins& map, std::size_t n, const Aabb& b
       const std::size_t n_right = n - n_left;
       if (n_left == 0 || n_right == 0) continue;
       ++evals;
-      const float cost = bvh_split_cost(options, parent_area, left.half_area(), n_left,
-                                        right_box[i + 1].half_area(), n_right);
+      const float cost = bvh_split_cost(options, parent_measure, measure(left), n_left,
+                                        measure(right_box[i + 1]), n_right);
       if (cost < best.cost) best = {a, i, cost, left, right_box[i + 1], n_left};
     }
   }

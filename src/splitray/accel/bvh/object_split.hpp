@@ -166,17 +166,17 @@ inline float leaf_tests(const BvhBuildOptions& o, std::size_t n) {
   return static_cast<float>((n + (std::size_t{1} << shift) - 1) >> shift);
 }
 
-// SAH cost of a leaf, and of a split with the given child areas and counts (relative to the
-// parent's area).
+// SAH cost of a leaf, and of a split with the given child measures (o.measure: areas, or
+// areas and volumes) and counts, relative to the parent's measure.
 inline float bvh_leaf_cost(const BvhBuildOptions& o, std::size_t n) {
   return o.intersection_cost * leaf_tests(o, n);
 }
-inline float bvh_split_cost(const BvhBuildOptions& o, float parent_area, float left_area,
-                            std::size_t n_left, float right_area, std::size_t n_right) {
+inline float bvh_split_cost(const BvhBuildOptions& o, float parent_measure, float left_measure,
+                            std::size_t n_left, float right_measure, std::size_t n_right) {
   return o.traversal_cost +
          o.intersection_cost *
-             (left_area * leaf_tests(o, n_left) + right_area * leaf_tests(o, n_right)) /
-             parent_area;
+             (left_measure * leaf_tests(o, n_left) + right_measure * leaf_tests(o, n_right)) /
+             parent_measure;
 }
 
 }  // namespace splitray

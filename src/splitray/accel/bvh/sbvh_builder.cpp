@@ -95,11 +95,10 @@ class SbvhBuilder {
       } else if (r.box.lo[a] >= p) {
         to_right(r);
       } else {
-        const float both = left_box.half_area() * n_left + right_box.half_area() * n_right;
-        const float all_left =
-            merge(left_box, r.box).half_area() * n_left + right_box.half_area() * (n_right - 1);
-        const float all_right =
-            left_box.half_area() * (n_left - 1) + merge(right_box, r.box).half_area() * n_right;
+        const SplitMeasure& m = options_.measure;
+        const float both = m(left_box) * n_left + m(right_box) * n_right;
+        const float all_left = m(merge(left_box, r.box)) * n_left + m(right_box) * (n_right - 1);
+        const float all_right = m(left_box) * (n_left - 1) + m(merge(right_box, r.box)) * n_right;
         if (all_left < both && all_left <= all_right) {
           to_left(r);
           left_box.extend(r.box);

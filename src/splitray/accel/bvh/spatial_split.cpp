@@ -184,14 +184,15 @@ struct SpatialBins {
                     std::uint64_t& evals) const {
     SpatialSplit best;
     int best_slab = 0;
-    const float parent_area = std::max(box.half_area(), std::numeric_limits<float>::min());
-    float right_area[kMaxSpatialBins];
+    const SplitMeasure& measure = options.measure;
+    const float parent_measure = std::max(measure(box), std::numeric_limits<float>::min());
+    float right_measure[kMaxSpatialBins];
     for (int a = 0; a < 3; ++a) {
       if (!s.used[a]) continue;
       Aabb acc;
       for (int i = count - 1; i > 0; --i) {
         acc.extend(bin[i][a].box());
-        right_area[i] = acc.half_area();
+        right_measure[i] = measure(acc);
       }
       Aabb left;
       std::size_t n_left = 0, n_right = n;
@@ -201,8 +202,8 @@ struct SpatialBins {
         n_right -= bin[i][a].exit;
         if (n_left == 0 || n_right == 0) continue;
         ++evals;
-        const float cost = bvh_split_cost(options, parent_area, left.half_area(), n_left,
-                                          right_area[i + 1], n_right);
+        const float cost = bvh_split_cost(options, parent_measure, measure(left), n_left,
+                                          right_measure[i + 1], n_right);
         if (cost < best.cost) {
           best = {a, s.plane(a, i + 1), cost, left, {}, n_left, n_right};
           best_slab = i + 1;
