@@ -18,7 +18,8 @@ namespace splitray {
 // order: x, y, then z, the largest direction component), sx, sy, sz the rays' shear. Returns
 // the lanes of `valid` hit with tmin <= t <= tmax, their t, u and v stored in the arrays;
 // `scalar` gets the lanes of `valid` the scalar test must decide.
-template <class F>
+// kEarlyOuts: return as soon as no lane is left (the choice of wide_bvh_walk.hpp's walk).
+template <class F, bool kEarlyOuts = true>
 [[gnu::always_inline]] inline unsigned watertight_lanes(const F (&rel)[3][3], F sx, F sy, F sz,
                                                         unsigned valid, F tmin, F tmax,
                                                         float* t_out, float* u_out, float* v_out,
@@ -37,13 +38,13 @@ template <class F>
   const unsigned negative = ((u < zero) | (v < zero) | (w < zero)).bits();
   const unsigned positive = ((u > zero) | (v > zero) | (w > zero)).bits();
   unsigned inside = valid & ~edge & ~(negative & positive);
-  if (!inside) return 0;
+  if (kEarlyOuts && !inside) return 0;
   const F det = u + v + w;
   const F magnitude = abs(u1) + abs(u2) + (abs(v1) + abs(v2)) + (abs(w1) + abs(w2));
   const unsigned ill = (F::broadcast(8.0f) * abs(det) < magnitude).bits();
   scalar |= ill & inside;
   inside &= ~ill;
-  if (!inside) return 0;
+  if (kEarlyOuts && !inside) return 0;
   const F t_scaled = u * (sz * az0) + v * (sz * bz0) + w * (sz * cz0);
   const F inv_det = F::broadcast(1.0f) / det;
   const F t = t_scaled * inv_det;
@@ -68,15 +69,16 @@ class Watertight8 {
 
   // load(vertex, axis) -> the eight lanes' coordinate `axis` (0-2) of vertex 0-2 (a Float8 or
   // __m256); the rest as watertight_lanes.
-  template <class Load>
+  template <bool kEarlyOuts = true, class Load>
   unsigned test(const Load& load, unsigned valid, float tmin, float tmax, float* t_out,
                 float* u_out, float* v_out, unsigned& scalar) const {
     using simd::Float8;
     Float8 rel[3][3];
     for (int vertex = 0; vertex < 3; ++vertex)
       for (int i = 0; i < 3; ++i) rel[vertex][i] = Float8(load(vertex, k_[i])) - org_[i];
-    return watertight_lanes(rel, sx_, sy_, sz_, valid, Float8::broadcast(tmin),
-                            Float8::broadcast(tmax), t_out, u_out, v_out, scalar);
+    return watertight_lanes<Float8, kEarlyOuts>(rel, sx_, sy_, sz_, valid, Float8::broadcast(tmin),
+                                                Float8::broadcast(tmax), t_out, u_out, v_out,
+                                                scalar);
   }
 
  private:

@@ -110,13 +110,16 @@ struct WatertightBlock {
 #if defined(__AVX__)
   Watertight8 test8;
   explicit WatertightBlock(const WatertightRay& ray) : test8(ray) {}
+  template <bool kEarlyOuts = true>
   unsigned test(const TriangleBlock& b, float tmin, float tmax, float* t_out, float* u_out,
                 float* v_out, unsigned& scalar) const {
     const auto load = [&](int vertex, int axis) { return _mm256_load_ps(b.v[3 * vertex + axis]); };
-    return test8.test(load, (1u << kBlockWidth) - 1, tmin, tmax, t_out, u_out, v_out, scalar);
+    return test8.template test<kEarlyOuts>(load, (1u << kBlockWidth) - 1, tmin, tmax, t_out, u_out,
+                                           v_out, scalar);
   }
 #else
   explicit WatertightBlock(const WatertightRay&) {}
+  template <bool kEarlyOuts = true>
   unsigned test(const TriangleBlock&, float, float, float*, float*, float*,
                 unsigned& scalar) const {
     scalar = (1u << kBlockWidth) - 1;
@@ -127,7 +130,8 @@ struct WatertightBlock {
 
 // Tests the `count` blocks of a leaf for one ray with t in [tmin, best.t]. Closest hit: `best`
 // becomes the closest hit under the tie rule of Hit; any hit: true at the first hit.
-template <bool AnyHit>
+// kEarlyOuts: each block test returns once no triangle is left (see walk).
+template <bool AnyHit, bool kEarlyOuts = true>
 [[gnu::always_inline]] inline bool test_leaf(const TriangleBlock* blocks, std::uint32_t count,
                                              const WatertightRay& w, const WatertightBlock& wb,
                                              float tmin, Hit& best) {
@@ -135,7 +139,7 @@ template <bool AnyHit>
     alignas(32) float t[kBlockWidth], u[kBlockWidth], v[kBlockWidth];
     unsigned scalar;
     const TriangleBlock& block = blocks[b];
-    unsigned found = wb.test(block, tmin, best.t, t, u, v, scalar);
+    unsigned found = wb.template test<kEarlyOuts>(block, tmin, best.t, t, u, v, scalar);
     while (scalar != 0) {  // edge cases: the scalar test decides in double precision
       const int lane = std::countr_zero(scalar);
       scalar &= scalar - 1;
@@ -198,19 +202,16 @@ struct Counting {
 // primary rays were 6-7% slower that way, AMD EPYC). Children hit by the ray are entered
 // nearest first; the others wait on the stack, farther ones lower, and are skipped once behind
 // the closest hit. `hit` holds the closest hit so far (t = tmax when none) and gets the closest
-// one; returns true when an any-hit query found a hit.
-template <bool AnyHit, class Counts = NoCounts>
-bool walk(const WideNode* nodes, const TriangleBlock* blocks, const Ray& ray, const Aabb& scene,
-          float magnitude, Hit& hit, Counts counts = {}) {
+// one; returns true when an any-hit query found a hit. kInside: the ray starts inside the
+// scene's box (see walk).
+template <bool AnyHit, bool kInside, class Counts>
+bool walk_from(const WideNode* nodes, const TriangleBlock* blocks, const Ray& ray,
+               const Aabb& scene, float magnitude, Hit& hit, Counts counts) {
   const RobustRay r(ray, scene, magnitude);
   const WideSlab slab(r);
-  // The triangle test's constants (three divisions): at once for a ray that starts inside the
-  // scene's box, which reaches the leaf it starts in (a ray leaving a surface), so that their
-  // latency overlaps the first nodes' (diffuse rays 0-4% faster); else at the first leaf, as
-  // rays from a camera outside often miss everything (made at once, primary rays 5% slower).
-  std::optional<WatertightRay> w;
+  std::optional<WatertightRay> w;  // the triangle test's constants (three divisions)
   std::optional<WatertightBlock> wb;
-  if (starts_inside(ray, scene)) wb.emplace(w.emplace(ray));
+  if constexpr (kInside) wb.emplace(w.emplace(ray));
   const float tmin = ray.tmin;
   Hit best = hit;  // best.t: the far end of every test (tmax for an any-hit query)
   TraversalStack<Entry, kStackSize> stack;
@@ -255,9 +256,10 @@ bool walk(const WideNode* nodes, const TriangleBlock* blocks, const Ray& ray, co
         continue;
       }
     } else {  // a leaf: its blocks of eight triangles
-      if (!wb) wb.emplace(w.emplace(ray));
+      if (!kInside && !wb) wb.emplace(w.emplace(ray));
       counts.leaf(blocks + current.child, current.count, best);
-      if (test_leaf<AnyHit>(blocks + current.child, current.count, *w, *wb, tmin, best) && AnyHit)
+      if (test_leaf<AnyHit, !kInside>(blocks + current.child, current.count, *w, *wb, tmin, best) &&
+          AnyHit)
         return true;
     }
     const Entry* next = stack.pop_not_behind(best.t);
@@ -267,6 +269,24 @@ bool walk(const WideNode* nodes, const TriangleBlock* blocks, const Ray& ray, co
     }
     current = *next;
   }
+}
+
+// The walk of a ray, in one of two forms by where it starts (the box test RobustRay makes).
+// A ray that starts inside the scene's box (a ray leaving a surface, a camera in a room) gets its
+// triangle-test constants at once, so that their latency overlaps the first nodes' (it reaches
+// at least the leaf it starts in: diffuse rays 0-4% faster), and tests blocks without early outs:
+// whether any of a block's eight triangles is left after the edge tests is a coin toss for such
+// rays, which the branch predictor does not learn, and the mispredictions cost more than the rest
+// of the test (diffuse rays 2-3% faster, docs/experiments.md traversal round 7). A ray from a
+// camera outside gets its constants at its first leaf, as many such rays miss everything (made at
+// once, primary rays 5% slower), and keeps the early outs, which neighbouring rays take alike
+// (without them primary rays were 9% slower).
+template <bool AnyHit, class Counts = NoCounts>
+bool walk(const WideNode* nodes, const TriangleBlock* blocks, const Ray& ray, const Aabb& scene,
+          float magnitude, Hit& hit, Counts counts = {}) {
+  return starts_inside(ray, scene)
+             ? walk_from<AnyHit, true>(nodes, blocks, ray, scene, magnitude, hit, counts)
+             : walk_from<AnyHit, false>(nodes, blocks, ray, scene, magnitude, hit, counts);
 }
 
 }  // namespace splitray::wide_bvh
