@@ -487,6 +487,7 @@ TEST(Bvh, InteriorMeasureIsTheShareOfRaysStartingInside) {
   const SplitMeasure m = SplitMeasure::interior(scene);
   EXPECT_FLOAT_EQ(m(scene), 2 * scene.half_area());
   EXPECT_EQ(SplitMeasure::interior(Aabb{{0, 0, 0}, {4, 2, 0}}).volume_weight, 0.0f);  // flat
+  EXPECT_EQ(SplitMeasure::interior(Aabb{{0, 0, 0}, {4, 2, 1e-40f}}).volume_weight, 0.0f);
   EXPECT_EQ(SplitMeasure{}(scene), scene.half_area());                                // the SAH's
   Pcg32 rng(26);
   constexpr int kRays = 200000;

@@ -3,6 +3,7 @@
 // with bounds that may be clipped to a region), settings, and the builders themselves.
 // A builder returns a Piece tree (piece_tree.hpp) that Bvh lays out.
 #include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -73,10 +74,12 @@ std::vector<BvhRef> make_prim_refs(std::span<const Triangle> triangles);  // who
 struct SplitMeasure {
   float volume_weight = 0;
   // The measure for rays that start inside `scene` (the box of every triangle).
+  // (A scene too thin for the ratio to be finite is flat to it.)
   static SplitMeasure interior(const Aabb& scene) {
     const Vec3 e = scene.extent();
     const float volume = e.x * e.y * e.z;
-    return {scene.empty() || !(volume > 0) ? 0.0f : scene.half_area() / volume};
+    const float weight = scene.empty() || !(volume > 0) ? 0.0f : scene.half_area() / volume;
+    return {std::isfinite(weight) ? weight : 0.0f};
   }
   float operator()(const Aabb& box) const {
     if (box.empty()) return 0;
