@@ -69,8 +69,8 @@ std::vector<BvhRef> make_prim_refs(std::span<const Triangle> triangles);  // who
 // Crofton's formulas, with the chord in S taken at its mean 4 V_S / A_S, that is the fraction
 // A_X / (2 A_S) + V_X / (2 V_S) of all pairs: so the measure is the half area plus the volume
 // times half_area(S) / volume(S) (`volume_weight`; 0, the SAH alone, for a flat scene).
-// Measured against the SAH (docs/experiments.md, builds round 7): rays 2-4% faster on the
-// benchmark meshes and up to 18% in the rooms of the untuned set.
+// Measured against the SAH, relative to Embree in the same runs (docs/experiments.md, builds
+// round 7): the untuned rooms' primary rays up to 15% faster, the benchmark meshes level.
 struct SplitMeasure {
   float volume_weight = 0;
   // The measure for rays that start inside `scene` (the box of every triangle).
