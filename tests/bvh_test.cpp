@@ -459,6 +459,7 @@ TEST(Bvh, SmallNodesAreSplitOnlyWhenThatIsCheaper) {
     for (const std::string builder : {"binned", "sbvh"}) {
       const Bvh bvh = Bvh::build(tris, builder, options);
       const auto nodes = bvh.nodes();
+      const SplitMeasure m = SplitMeasure::interior(nodes[0].box());  // as Bvh::build
       for (std::size_t i = 0; i < nodes.size(); ++i) {
         const BvhNode& n = nodes[i];
         if (n.leaf()) continue;
@@ -466,7 +467,6 @@ TEST(Bvh, SmallNodesAreSplitOnlyWhenThatIsCheaper) {
         if (!l.leaf() || !r.leaf() || l.count() + r.count() > std::size_t(options.max_leaf))
           continue;
         ++checked;
-        const SplitMeasure m = SplitMeasure::interior(nodes[0].box());  // as Bvh::build
         const float cost =
             bvh_split_cost(options, m(n.box()), m(l.box()), l.count(), m(r.box()), r.count());
         EXPECT_LT(cost, bvh_leaf_cost(options, l.count() + r.count()))
@@ -488,7 +488,7 @@ TEST(Bvh, InteriorMeasureIsTheShareOfRaysStartingInside) {
   EXPECT_FLOAT_EQ(m(scene), 2 * scene.half_area());
   EXPECT_EQ(SplitMeasure::interior(Aabb{{0, 0, 0}, {4, 2, 0}}).volume_weight, 0.0f);  // flat
   EXPECT_EQ(SplitMeasure::interior(Aabb{{0, 0, 0}, {4, 2, 1e-40f}}).volume_weight, 0.0f);
-  EXPECT_EQ(SplitMeasure{}(scene), scene.half_area());                                // the SAH's
+  EXPECT_EQ(SplitMeasure{}(scene), scene.half_area());  // the SAH's
   Pcg32 rng(26);
   constexpr int kRays = 200000;
   for (const Aabb& box : {Aabb{{0, 0, 0}, {0.5f, 0.5f, 0.5f}}, Aabb{{0, 0, 0}, {2, 2, 1}}}) {

@@ -97,10 +97,10 @@ std::vector<BvhRef> make_prim_refs(std::span<const Triangle> triangles) {
 }
 
 BvhBuildResult build_bvh_binned(std::span<const Triangle>, std::vector<BvhRef> refs,
-                                const BvhBuildOptions& options) {
+                                const RefBounds& bounds, const BvhBuildOptions& options) {
   BinnedBuilder builder(refs, options);
   BvhBuildResult result;
-  result.root = builder.build_piece(0, refs.size(), ref_bounds(refs), 0);
+  result.root = builder.build_piece(0, refs.size(), bounds, 0);
   result.cost_evals = builder.evals();
   return result;
 }

@@ -27,13 +27,14 @@ std::vector<std::string> Bvh::builder_names() { return {"binned", "sbvh", "embre
 Bvh Bvh::build(std::span<const Triangle> triangles, const std::string& builder,
                const BvhBuildOptions& given) {
   std::vector<BvhRef> refs = make_prim_refs(triangles);
+  const RefBounds bounds = ref_bounds(refs);  // the scene's box, and the builders' root
   BvhBuildOptions options = given;
-  options.measure = SplitMeasure::interior(ref_bounds(refs).box);
+  options.measure = SplitMeasure::interior(bounds.box);
   BvhBuildResult result;
   if (builder == "binned")
-    result = build_bvh_binned(triangles, std::move(refs), options);
+    result = build_bvh_binned(triangles, std::move(refs), bounds, options);
   else if (builder == "sbvh")
-    result = build_bvh_sbvh(triangles, std::move(refs), options);
+    result = build_bvh_sbvh(triangles, std::move(refs), bounds, options);
   else if (builder == "embree")
     result = build_bvh_embree(triangles, std::move(refs), options, true);
   else {

@@ -128,14 +128,17 @@ struct BvhBuildResult {
   std::uint64_t cost_evals = 0;
 };
 
-// Binned SAH over reference centres (Wald 2007).
+struct RefBounds;
+
+// Binned SAH over reference centres (Wald 2007). `bounds`: ref_bounds(refs), which the caller
+// has made for the split measure (object_split.hpp).
 BvhBuildResult build_bvh_binned(std::span<const Triangle> triangles, std::vector<BvhRef> refs,
-                                const BvhBuildOptions& options);
+                                const RefBounds& bounds, const BvhBuildOptions& options);
 // Spatial-split BVH (Stich, Friedrich & Dietrich 2009): binned object splits, and spatial
 // splits with reference splitting and unsplitting where the children would overlap by more
 // than sbvh_alpha of the root's area; at most twice as many references as input.
 BvhBuildResult build_bvh_sbvh(std::span<const Triangle> triangles, std::vector<BvhRef> refs,
-                              const BvhBuildOptions& options);
+                              const RefBounds& bounds, const BvhBuildOptions& options);
 // Embree's custom builder (rtcBuildBVH, high quality with spatial splits through our
 // triangle splitting when `spatial`), converted to our nodes.
 BvhBuildResult build_bvh_embree(std::span<const Triangle> triangles, std::vector<BvhRef> refs,

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <numeric>
 
+#include "splitray/accel/bvh/object_split.hpp"
 #include "splitray/accel/triangle_clip.hpp"
 #include "splitray/core/errors.hpp"
 #include "splitray/core/parallel.hpp"
@@ -176,12 +177,16 @@ Bvh build_top_bvh(std::span<const Triangle> triangles, std::span<const TopCell> 
     if (refs[l].empty()) return;
     BvhBuildResult built;
     switch (expander) {
-      case LeafExpander::binned:
-        built = build_bvh_binned(triangles, std::move(refs[l]), leaf_options);
+      case LeafExpander::binned: {
+        const RefBounds bounds = ref_bounds(refs[l]);
+        built = build_bvh_binned(triangles, std::move(refs[l]), bounds, leaf_options);
         break;
-      case LeafExpander::sbvh:
-        built = build_bvh_sbvh(triangles, std::move(refs[l]), leaf_options);
+      }
+      case LeafExpander::sbvh: {
+        const RefBounds bounds = ref_bounds(refs[l]);
+        built = build_bvh_sbvh(triangles, std::move(refs[l]), bounds, leaf_options);
         break;
+      }
       case LeafExpander::embree:
         built = build_bvh_embree(triangles, std::move(refs[l]), leaf_options, true);
         break;

@@ -227,8 +227,7 @@ class SbvhBuilder {
 }  // namespace
 
 BvhBuildResult build_bvh_sbvh(std::span<const Triangle> triangles, std::vector<BvhRef> refs,
-                              const BvhBuildOptions& options) {
-  const RefBounds bounds = ref_bounds(refs);
+                              const RefBounds& bounds, const BvhBuildOptions& options) {
   const std::size_t n = refs.size();
   const auto room = std::max(n, static_cast<std::size_t>(kGrowth * static_cast<double>(n)));
   // Raw storage (BvhRef is an implicit-lifetime aggregate): the room is written only where

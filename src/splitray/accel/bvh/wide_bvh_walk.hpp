@@ -271,7 +271,7 @@ bool walk_from(const WideNode* nodes, const TriangleBlock* blocks, const Ray& ra
   }
 }
 
-// The walk of a ray, in one of two forms by where it starts (the box test RobustRay makes).
+// The walk of a ray, in one of two forms by where it starts (starts_inside, robust_ray.hpp).
 // A ray that starts inside the scene's box (a ray leaving a surface, a camera in a room) gets its
 // triangle-test constants at once, so that their latency overlaps the first nodes' (it reaches
 // at least the leaf it starts in: diffuse rays 0-4% faster), and tests blocks without early outs:
