@@ -309,9 +309,12 @@ TEST_F(CliConsistency, BenchBvhMeasuresAGivenMeshFromItsCamera) {
   const json& m = report["meshes"][0];
   EXPECT_EQ(m["triangles"], 16843);
   EXPECT_EQ(m["views"].size(), 2u);
-  EXPECT_EQ(m["runs"][0]["results"].size(), 5u);  // bvh binned, sbvh; embree low, medium, high
+  // bvh binned, sbvh; embree low, medium, high, medium-robust, high-robust
+  EXPECT_EQ(m["runs"][0]["results"].size(), 7u);
   EXPECT_EQ(m["runs"][0]["binned_vs_sbvh_differing"]["primary"], 0);
   EXPECT_GT(m["runs"][0]["ratios"]["sbvh"]["diffuse"]["batched"].get<double>(), 0.0);
+  EXPECT_EQ(m["runs"][0]["ratios_robust"]["binned"]["against"], "embree medium-robust");
+  EXPECT_GT(m["runs"][0]["ratios_robust"]["sbvh"]["primary"]["single"].get<double>(), 0.0);
   EXPECT_GT(m["profile"][0]["diffuse"]["nodes_per_ray"].get<double>(), 0.0);
   const Result bad = run("bench bvh --meshes " + quote(horse() + "@1,2,3") + " --json");
   EXPECT_EQ(bad.status, 1);

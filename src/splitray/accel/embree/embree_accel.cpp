@@ -6,6 +6,7 @@
 #include <atomic>
 #include <mutex>
 #include <string>
+#include <string_view>
 
 #include "splitray/core/errors.hpp"
 #include "splitray/core/parallel.hpp"
@@ -16,21 +17,27 @@ namespace splitray {
 namespace {
 
 // Scene and geometry quality of a builder name; refit needs Embree's two-level LOW scene,
-// the only one that uses the geometry's REFIT quality.
+// the only one that uses the geometry's REFIT quality. "-robust" adds RTC_SCENE_FLAG_ROBUST:
+// conservative box tests and Embree's watertight triangle test, the guarantee our structures
+// always give (the plain qualities, Embree's defaults, are the yardstick of the targets).
 struct Quality {
   RTCBuildQuality scene, geometry;
-  bool dynamic;
+  bool dynamic = false, robust = false;
 };
 
 Quality parse_quality(const std::string& builder) {
-  if (builder == "low") return {RTC_BUILD_QUALITY_LOW, RTC_BUILD_QUALITY_LOW, false};
-  if (builder == "high") return {RTC_BUILD_QUALITY_HIGH, RTC_BUILD_QUALITY_HIGH, false};
-  if (builder == "medium" || builder.empty())
-    return {RTC_BUILD_QUALITY_MEDIUM, RTC_BUILD_QUALITY_MEDIUM, false};
-  if (builder == "refit") return {RTC_BUILD_QUALITY_LOW, RTC_BUILD_QUALITY_REFIT, true};
+  constexpr std::string_view kRobust = "-robust";
+  const bool robust =
+      builder.size() > kRobust.size() && std::string_view(builder).ends_with(kRobust);
+  const std::string quality = robust ? builder.substr(0, builder.size() - kRobust.size()) : builder;
+  if (quality == "low") return {RTC_BUILD_QUALITY_LOW, RTC_BUILD_QUALITY_LOW, false, robust};
+  if (quality == "high") return {RTC_BUILD_QUALITY_HIGH, RTC_BUILD_QUALITY_HIGH, false, robust};
+  if (quality == "medium" || builder.empty())
+    return {RTC_BUILD_QUALITY_MEDIUM, RTC_BUILD_QUALITY_MEDIUM, false, robust};
+  if (builder == "refit") return {RTC_BUILD_QUALITY_LOW, RTC_BUILD_QUALITY_REFIT, true, false};
   throw Error("--builder", "'" + builder +
                                "' is not a builder of --accel embree (known: medium, low, high, "
-                               "refit)");
+                               "refit, medium-robust, low-robust, high-robust)");
 }
 
 const char* error_name(RTCError code) {
@@ -114,8 +121,9 @@ class EmbreeAccel final : public EmbreeScene {
     scene_.reset(rtcNewScene(device_.get()));
     check("creating the scene");
     rtcSetSceneBuildQuality(scene_.get(), quality.scene);
-    // Not ROBUST: Embree's defaults, the yardstick.
-    rtcSetSceneFlags(scene_.get(), quality.dynamic ? RTC_SCENE_FLAG_DYNAMIC : RTC_SCENE_FLAG_NONE);
+    rtcSetSceneFlags(scene_.get(),
+                     (quality.dynamic ? RTC_SCENE_FLAG_DYNAMIC : RTC_SCENE_FLAG_NONE) |
+                         (quality.robust ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE));
     geometry_.reset(rtcNewGeometry(device_.get(), RTC_GEOMETRY_TYPE_TRIANGLE));
     check("creating the geometry");
     RTCGeometry geometry = geometry_.get();
