@@ -41,9 +41,7 @@ const std::map<std::string, Entry>& registry() {
   static const std::map<std::string, Entry> entries = {
       {"brute", {{"none"}, make_brute}},
       {"kd", {kd_builder_names(), make_or_neural<make_kd, make_neural_kd>, true, kKdSah}},
-      {"embree",
-       {{"medium", "low", "high", "refit", "medium-robust", "low-robust", "high-robust"},
-        make_embree}},
+      {"embree", {{"medium", "low", "high", "refit", "medium-robust", "low-robust"}, make_embree}},
       {"bih", {bih_builder_names(), make_bih}},
       {"bvh", {Bvh::builder_names(), make_or_neural<make_bvh, make_neural_bvh>, true}},
   };

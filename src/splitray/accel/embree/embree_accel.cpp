@@ -6,7 +6,6 @@
 #include <atomic>
 #include <mutex>
 #include <string>
-#include <string_view>
 
 #include "splitray/core/errors.hpp"
 #include "splitray/core/parallel.hpp"
@@ -18,26 +17,29 @@ namespace {
 
 // Scene and geometry quality of a builder name; refit needs Embree's two-level LOW scene,
 // the only one that uses the geometry's REFIT quality. "-robust" adds RTC_SCENE_FLAG_ROBUST:
-// conservative box tests and Embree's watertight triangle test, the guarantee our structures
-// always give (the plain qualities, Embree's defaults, are the yardstick of the targets).
+// conservative box tests and Embree's Pluecker triangle test, the guarantee nearest to that of
+// our structures (the plain qualities, Embree's defaults, are the yardstick of the targets).
+// Embree 3 builds robust scenes with its medium (or, for LOW, its dynamic) builder whatever the
+// quality, so there is no high-robust.
 struct Quality {
   RTCBuildQuality scene, geometry;
   bool dynamic = false, robust = false;
 };
 
 Quality parse_quality(const std::string& builder) {
-  constexpr std::string_view kRobust = "-robust";
-  const bool robust =
-      builder.size() > kRobust.size() && std::string_view(builder).ends_with(kRobust);
-  const std::string quality = robust ? builder.substr(0, builder.size() - kRobust.size()) : builder;
-  if (quality == "low") return {RTC_BUILD_QUALITY_LOW, RTC_BUILD_QUALITY_LOW, false, robust};
-  if (quality == "high") return {RTC_BUILD_QUALITY_HIGH, RTC_BUILD_QUALITY_HIGH, false, robust};
-  if (quality == "medium" || builder.empty())
-    return {RTC_BUILD_QUALITY_MEDIUM, RTC_BUILD_QUALITY_MEDIUM, false, robust};
-  if (builder == "refit") return {RTC_BUILD_QUALITY_LOW, RTC_BUILD_QUALITY_REFIT, true, false};
-  throw Error("--builder", "'" + builder +
-                               "' is not a builder of --accel embree (known: medium, low, high, "
-                               "refit, medium-robust, low-robust, high-robust)");
+  if (builder == "low") return {RTC_BUILD_QUALITY_LOW, RTC_BUILD_QUALITY_LOW};
+  if (builder == "high") return {RTC_BUILD_QUALITY_HIGH, RTC_BUILD_QUALITY_HIGH};
+  if (builder == "medium" || builder.empty())
+    return {RTC_BUILD_QUALITY_MEDIUM, RTC_BUILD_QUALITY_MEDIUM};
+  if (builder == "refit") return {RTC_BUILD_QUALITY_LOW, RTC_BUILD_QUALITY_REFIT, true};
+  if (builder == "low-robust") return {RTC_BUILD_QUALITY_LOW, RTC_BUILD_QUALITY_LOW, false, true};
+  if (builder == "medium-robust")
+    return {RTC_BUILD_QUALITY_MEDIUM, RTC_BUILD_QUALITY_MEDIUM, false, true};
+  throw Error("--builder",
+              "'" + builder +
+                  "' is not a builder of --accel embree (known: medium, low, high, refit, "
+                  "medium-robust, low-robust; Embree builds robust scenes at medium quality at "
+                  "most)");
 }
 
 const char* error_name(RTCError code) {

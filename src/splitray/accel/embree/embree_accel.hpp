@@ -1,6 +1,6 @@
 #pragma once
 // Embree 3 behind the common interface: the yardstick (builders low|medium|high|refit, and
-// low|medium|high-robust with Embree's watertight mode, RTC_SCENE_FLAG_ROBUST).
+// low|medium-robust with Embree's robust mode, RTC_SCENE_FLAG_ROBUST).
 #include <span>
 
 #include "splitray/accel/accel.hpp"
