@@ -35,9 +35,12 @@ def test_every_structure_equals_brute_force(horse, reference, accel, builder):
         np.testing.assert_array_equal(hits[key], brute[key], err_msg=f"{accel}/{builder} {key}")
 
 
-def test_embree_finds_the_same_triangles(horse, reference):
+@pytest.mark.parametrize("builder", ["medium", "medium-robust"])
+def test_embree_finds_the_same_triangles(horse, reference, builder):
     rays, brute = reference
-    hits = splitray.Scene(*horse, accel="embree").cast_rays(rays)
+    scene = splitray.Scene(*horse, accel="embree", builder=builder)
+    assert scene.stats["builder"] == builder
+    hits = scene.cast_rays(rays)
     same = hits["primitive_ids"] == brute["primitive_ids"]
     assert same.mean() > 0.999  # Embree's own triangle test may differ on shared edges
     np.testing.assert_allclose(hits["t_hit"][same], brute["t_hit"][same], rtol=1e-5)
