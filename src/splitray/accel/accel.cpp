@@ -1,6 +1,8 @@
 #include "splitray/accel/accel.hpp"
 
 #include <algorithm>
+#include <cstdint>
+#include <vector>
 
 #include "splitray/core/errors.hpp"
 #include "splitray/core/parallel.hpp"
@@ -46,44 +48,59 @@ bool Accel::occluded(const Ray& ray) const {
   return any_hit(p.exponent == 0 ? ray : scaled_ray(ray, p.exponent));
 }
 
-// The batched calls hand the structure's fast paths the caller's array when every ray is in
-// the domain as given (the common case), and otherwise the traceable rays, rescaled, as a
-// compact copy whose answers are scattered back.
+namespace {
+
+// Rays a block of the batched calls' slow path holds (see in_domain).
+constexpr std::size_t kRescaleBlock = 1024;
+
+// Runs `batched` (a structure's batched call) on `rays`, writing `results`. It gets the
+// caller's array when every ray is in the domain as given (the common case). Otherwise the
+// rays go in blocks, in parallel: a block whose rays are all as given as it is, the others as a
+// compact copy of their traceable rays, rescaled, whose answers (unscaled by `unscale`) are
+// scattered back; an untraceable ray gets Result{}. (One copy of the whole array ran on one
+// thread and cost 12% of the call on 300,000 diffuse rays of unnormalised directions.)
+template <class Result, class Batched, class Unscale>
+void in_domain(std::span<const Ray> rays, std::span<Result> results, const Batched& batched,
+               const Unscale& unscale) {
+  if (all_as_given(rays)) return batched(rays, results.first(rays.size()));
+  parallel_chunks(rays.size(), kRescaleBlock, [&](std::size_t begin, std::size_t end) {
+    const std::span<const Ray> block = rays.subspan(begin, end - begin);
+    const std::span<Result> out = results.subspan(begin, end - begin);
+    if (all_as_given(block)) return batched(block, out);
+    std::vector<Ray> kept;
+    std::vector<std::uint32_t> where;
+    std::vector<int> exponents;
+    kept.reserve(block.size());
+    where.reserve(block.size());
+    exponents.reserve(block.size());
+    for (std::size_t i = 0; i < block.size(); ++i) {
+      const Prepared p = prepare(block[i]);
+      out[i] = Result{};
+      if (!p.traceable) continue;
+      kept.push_back(p.exponent == 0 ? block[i] : scaled_ray(block[i], p.exponent));
+      where.push_back(static_cast<std::uint32_t>(i));
+      exponents.push_back(p.exponent);
+    }
+    std::vector<Result> kept_results(kept.size());
+    if (!kept.empty()) batched(std::span<const Ray>(kept), std::span<Result>(kept_results));
+    for (std::size_t j = 0; j < kept.size(); ++j)
+      out[where[j]] = unscale(kept_results[j], exponents[j]);
+  });
+}
+
+}  // namespace
+
 void Accel::intersect(std::span<const Ray> rays, std::span<Hit> hits) const {
   check_slots(rays.size(), hits.size(), "intersect");
-  if (all_as_given(rays)) return closest_hits(rays, hits.first(rays.size()));
-  std::vector<Ray> kept;
-  std::vector<std::size_t> where;
-  std::vector<int> exponents;
-  for (std::size_t i = 0; i < rays.size(); ++i) {
-    const Prepared p = prepare(rays[i]);
-    hits[i] = Hit{};
-    if (!p.traceable) continue;
-    kept.push_back(p.exponent == 0 ? rays[i] : scaled_ray(rays[i], p.exponent));
-    where.push_back(i);
-    exponents.push_back(p.exponent);
-  }
-  std::vector<Hit> kept_hits(kept.size());
-  if (!kept.empty()) closest_hits(kept, kept_hits);
-  for (std::size_t j = 0; j < kept.size(); ++j)
-    hits[where[j]] = unscaled(kept_hits[j], exponents[j]);
+  in_domain(
+      rays, hits, [&](std::span<const Ray> r, std::span<Hit> h) { closest_hits(r, h); }, unscaled);
 }
 
 void Accel::occluded(std::span<const Ray> rays, std::span<std::uint8_t> result) const {
   check_slots(rays.size(), result.size(), "occluded");
-  if (all_as_given(rays)) return any_hits(rays, result.first(rays.size()));
-  std::vector<Ray> kept;
-  std::vector<std::size_t> where;
-  for (std::size_t i = 0; i < rays.size(); ++i) {
-    const Prepared p = prepare(rays[i]);
-    result[i] = 0;
-    if (!p.traceable) continue;
-    kept.push_back(p.exponent == 0 ? rays[i] : scaled_ray(rays[i], p.exponent));
-    where.push_back(i);
-  }
-  std::vector<std::uint8_t> kept_result(kept.size());
-  if (!kept.empty()) any_hits(kept, kept_result);
-  for (std::size_t j = 0; j < kept.size(); ++j) result[where[j]] = kept_result[j];
+  in_domain(
+      rays, result, [&](std::span<const Ray> r, std::span<std::uint8_t> o) { any_hits(r, o); },
+      [](std::uint8_t occluded, int) { return occluded; });
 }
 
 void Accel::intersect_each(std::span<const Ray> rays, std::span<Hit> hits) const {
