@@ -144,19 +144,19 @@ void Bvh::fill_stats(AccelStats& stats, float traversal_cost, float intersection
 namespace splitray {
 
 Hit Bvh::intersect(const Ray& ray) const {
-  Hit hit;
-  if (nodes_.empty()) return hit;
-  hit.t = ray.tmax;
-  wide_.intersect(ray, scene_, magnitude_, hit);
-  if (!hit.found()) hit.t = kInfinity;
-  return hit;
+  if (nodes_.empty()) return Hit{};
+  Hit far_end;
+  far_end.t = ray.tmax;
+  // A select, not a store into the hit: t and prim go back as one register (see walk_from).
+  const Hit hit = wide_.intersect(ray, scene_, magnitude_, far_end);
+  return hit.found() ? hit : Hit{};
 }
 
 Hit Bvh::intersect_counted(const Ray& ray, WideBvhCounts& counts) const {
   Hit hit;
   if (nodes_.empty()) return hit;
   hit.t = ray.tmax;
-  wide_.intersect_counted(ray, scene_, magnitude_, hit, counts);
+  hit = wide_.intersect_counted(ray, scene_, magnitude_, hit, counts);
   if (!hit.found()) hit.t = kInfinity;
   return hit;
 }

@@ -77,8 +77,9 @@ class WideBvh {
   // After a refit of the binary tree (same topology): its boxes and the moved triangles.
   void refit(std::span<const BvhNode> nodes, std::span<const Triangle> triangles);
 
-  // Closest hit (hit.t = tmax on entry) or any hit, as Bvh::intersect / occluded.
-  void intersect(const Ray& ray, const Aabb& scene, float magnitude, Hit& hit) const;
+  // The closest hit, or `so_far` (t = tmax and no hit when nothing came before) when nothing
+  // closer is hit; any hit. As Bvh::intersect / occluded.
+  Hit intersect(const Ray& ray, const Aabb& scene, float magnitude, Hit so_far) const;
   bool occluded(const Ray& ray, const Aabb& scene, float magnitude) const;
   // 1 to kPacketRays coherent rays (the same direction signs, directions within about 10
   // degrees of the first's; any directions of the same signs with `any_angle`) walked together,
@@ -98,8 +99,8 @@ class WideBvh {
                                           float magnitude, bool any_angle = false) const;
   // intersect(), adding what the ray cost to `counts` (a slower copy of the same walk, after
   // the plain walk).
-  void intersect_counted(const Ray& ray, const Aabb& scene, float magnitude, Hit& hit,
-                         WideBvhCounts& counts) const;
+  Hit intersect_counted(const Ray& ray, const Aabb& scene, float magnitude, const Hit& so_far,
+                        WideBvhCounts& counts) const;
 
   std::size_t bytes() const {
     return nodes_.size() * sizeof(WideNode) + source_.size() * sizeof(std::uint32_t) +

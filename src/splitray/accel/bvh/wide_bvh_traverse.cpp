@@ -8,26 +8,27 @@ namespace splitray {
 using wide_bvh::Counting;
 using wide_bvh::walk;
 
-void WideBvh::intersect(const Ray& ray, const Aabb& scene, float magnitude, Hit& hit) const {
-  if (nodes_.empty()) return;
-  walk<false>(nodes_.data(), blocks_.data(), ray, scene, magnitude, hit);
+Hit WideBvh::intersect(const Ray& ray, const Aabb& scene, float magnitude, Hit so_far) const {
+  if (nodes_.empty()) return so_far;
+  return walk<false>(nodes_.data(), blocks_.data(), ray, scene, magnitude, so_far);
 }
 
 bool WideBvh::occluded(const Ray& ray, const Aabb& scene, float magnitude) const {
   if (nodes_.empty()) return false;
-  Hit hit;
-  hit.t = ray.tmax;
-  return walk<true>(nodes_.data(), blocks_.data(), ray, scene, magnitude, hit);
+  Hit far_end;
+  far_end.t = ray.tmax;
+  return walk<true>(nodes_.data(), blocks_.data(), ray, scene, magnitude, far_end);
 }
 
-void WideBvh::intersect_counted(const Ray& ray, const Aabb& scene, float magnitude, Hit& hit,
-                                WideBvhCounts& counts) const {
+Hit WideBvh::intersect_counted(const Ray& ray, const Aabb& scene, float magnitude,
+                               const Hit& so_far, WideBvhCounts& counts) const {
   ++counts.rays;
-  if (nodes_.empty()) return;
-  Hit closest = hit;  // the answer first, so that the counting walk knows which leaves hold it
-  walk<false>(nodes_.data(), blocks_.data(), ray, scene, magnitude, closest);
+  if (nodes_.empty()) return so_far;
+  // The answer first, so that the counting walk knows which leaves hold it.
+  const Hit closest = walk<false>(nodes_.data(), blocks_.data(), ray, scene, magnitude, so_far);
   counts.hits += closest.found() ? 1 : 0;
-  walk<false>(nodes_.data(), blocks_.data(), ray, scene, magnitude, hit, Counting{counts, closest});
+  return walk<false>(nodes_.data(), blocks_.data(), ray, scene, magnitude, so_far,
+                     Counting{counts, closest});
 }
 
 }  // namespace splitray

@@ -201,19 +201,23 @@ struct Counting {
 // here, not passed in, because a RobustRay built by the caller is read back from memory (single
 // primary rays were 6-7% slower that way, AMD EPYC). Children hit by the ray are entered
 // nearest first; the others wait on the stack, farther ones lower, and are skipped once behind
-// the closest hit. `hit` holds the closest hit so far (t = tmax when none) and gets the closest
-// one; returns true when an any-hit query found a hit. kInside: the ray starts inside the
-// scene's box (see walk).
+// the closest hit. `best` is the closest hit so far (t = tmax when none); returns the closest
+// hit, or for an any-hit query whether there is one. The hit goes back by value, in registers:
+// through a Hit& the caller reloaded t and prim as one 8-byte word written by two 4-byte
+// stores, which the CPU cannot forward, a stall on every ray (single rays that miss the mesh
+// took 17 ns, 3 of them there). kInside: the ray starts inside the scene's box (see walk).
+template <bool AnyHit>
+using WalkResult = std::conditional_t<AnyHit, bool, Hit>;
+
 template <bool AnyHit, bool kInside, class Counts>
-bool walk_from(const WideNode* nodes, const TriangleBlock* blocks, const Ray& ray,
-               const Aabb& scene, float magnitude, Hit& hit, Counts counts) {
+WalkResult<AnyHit> walk_from(const WideNode* nodes, const TriangleBlock* blocks, const Ray& ray,
+                             const Aabb& scene, float magnitude, Hit best, Counts counts) {
   const RobustRay r(ray, scene, magnitude);
   const WideSlab slab(r);
   std::optional<WatertightRay> w;  // the triangle test's constants (three divisions)
   std::optional<WatertightBlock> wb;
   if constexpr (kInside) wb.emplace(w.emplace(ray));
-  const float tmin = ray.tmin;
-  Hit best = hit;  // best.t: the far end of every test (tmax for an any-hit query)
+  const float tmin = ray.tmin;  // best.t: the far end of every test (tmax for an any-hit query)
   TraversalStack<Entry, kStackSize> stack;
   Entry current{0, 0, 0};  // the root
   for (;;) {
@@ -258,14 +262,17 @@ bool walk_from(const WideNode* nodes, const TriangleBlock* blocks, const Ray& ra
     } else {  // a leaf: its blocks of eight triangles
       if (!kInside && !wb) wb.emplace(w.emplace(ray));
       counts.leaf(blocks + current.child, current.count, best);
-      if (test_leaf<AnyHit, !kInside>(blocks + current.child, current.count, *w, *wb, tmin, best) &&
-          AnyHit)
-        return true;
+      const bool found =
+          test_leaf<AnyHit, !kInside>(blocks + current.child, current.count, *w, *wb, tmin, best);
+      if constexpr (AnyHit)
+        if (found) return true;
     }
     const Entry* next = stack.pop_not_behind(best.t);
     if (!next) {
-      hit = best;
-      return false;
+      if constexpr (AnyHit)
+        return false;
+      else
+        return best;
     }
     current = *next;
   }
@@ -282,11 +289,11 @@ bool walk_from(const WideNode* nodes, const TriangleBlock* blocks, const Ray& ra
 // once, primary rays 5% slower), and keeps the early outs, which neighbouring rays take alike
 // (without them primary rays were 9% slower).
 template <bool AnyHit, class Counts = NoCounts>
-bool walk(const WideNode* nodes, const TriangleBlock* blocks, const Ray& ray, const Aabb& scene,
-          float magnitude, Hit& hit, Counts counts = {}) {
+WalkResult<AnyHit> walk(const WideNode* nodes, const TriangleBlock* blocks, const Ray& ray,
+                        const Aabb& scene, float magnitude, Hit best, Counts counts = {}) {
   return starts_inside(ray, scene)
-             ? walk_from<AnyHit, true>(nodes, blocks, ray, scene, magnitude, hit, counts)
-             : walk_from<AnyHit, false>(nodes, blocks, ray, scene, magnitude, hit, counts);
+             ? walk_from<AnyHit, true>(nodes, blocks, ray, scene, magnitude, best, counts)
+             : walk_from<AnyHit, false>(nodes, blocks, ray, scene, magnitude, best, counts);
 }
 
 }  // namespace splitray::wide_bvh
