@@ -40,7 +40,7 @@ void add_bench_subcommands(CLI::App& bench) {
       "mode, the guarantee nearest to ours) on every benchmark mesh and "
       "any mesh given with its camera: build time and SAH cost, primary and diffuse Mrays/s from "
       "several viewpoints, single and batched, at 1 and all threads; nodes, boxes and triangle "
-      "blocks per ray");
+      "blocks per ray, and what a ray costs before its walk");
   add_bvh_bench_options(*bvh, *bvh_options);
   bvh->callback([bvh_options] {
     if (const int code = bvh_bench_command(*bvh_options); code != 0) throw CLI::RuntimeError(code);

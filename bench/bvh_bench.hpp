@@ -4,7 +4,8 @@
 // and high builds (low reported too): build time with SAH cost, and Mrays/s of primary and
 // diffuse rays from several viewpoints, single-ray and batched calls, at 1 and at all threads,
 // medians of several runs, as ratios from the same run on the same rays; plus what a ray costs
-// in our wide layout (nodes, boxes, leaves and triangle blocks per ray, bytes read).
+// in our wide layout (nodes, boxes, leaves and triangle blocks per ray, bytes read), and before
+// its walk (rays that cannot meet the mesh, in ours and in Embree).
 #include <CLI/CLI.hpp>
 #include <cstdint>
 #include <nlohmann/json.hpp>
