@@ -207,6 +207,50 @@ TEST(Bvh, PacketsTakeOnlyCoherentRays) {
   }
 }
 
+// The groups of the batched calls that make no packet: the root tested for eight rays at a time,
+// then each ray walked alone from the children it entered. Every answer must be brute's, in
+// groups of 1 to 16 rays of any directions (the rays of hard_rays, their directions brought to
+// the domain of coordinates.hpp by powers of two).
+TEST(Bvh, GroupsMatchBrute) {
+  std::vector<std::pair<std::string, std::vector<Triangle>>> cases = {
+      {"horse", reference(vendored_file(kHorse)).tris}, {"plane grid", grid_in_plane(24)}};
+  for (int i = 0; i < 8; ++i) {
+    test::HostileMesh mesh = test::hostile_mesh(0x27, i);
+    cases.emplace_back(mesh.name, std::move(mesh.tris));
+  }
+  for (const auto& [name, tris] : cases) {
+    std::vector<Ray> rays = hard_rays(tris, 2048, 0x9a);
+    for (Ray& r : rays) {
+      const float s = std::ldexp(1.0f, -std::ilogb(max_component(abs(r.dir))));
+      r = Ray{r.org, r.dir * s, r.tmin / s, r.tmax / s};
+    }
+    const Answers brute = brute_answers(tris, rays);
+    for (const std::string builder : {"binned", "sbvh"}) {
+      BuildConfig config;
+      config.builder = builder;
+      const Bvh bvh = Bvh::build(tris, builder, BvhBuildOptions::from(config));
+      const Aabb box = bvh.bounds();
+      std::size_t wrong = 0;
+      for (std::size_t i = 0; i + WideBvh::kPacketRays <= rays.size(); i += WideBvh::kPacketRays) {
+        const std::size_t size = 1 + (i / WideBvh::kPacketRays) % WideBvh::kPacketRays;
+        const std::span<const Ray> group(rays.data() + i, size);
+        Hit hits[WideBvh::kPacketRays];
+        std::uint8_t occluded[WideBvh::kPacketRays];
+        if (!bvh.wide().intersect_group(group, box, coordinate_magnitude(box), hits))
+          GTEST_SKIP() << "groups need AVX and FMA";
+        ASSERT_TRUE(bvh.wide().occluded_group(group, box, coordinate_magnitude(box), occluded));
+        for (std::size_t r = 0; r < size; ++r) {
+          Hit expected = brute.hits[i + r];
+          if (!expected.found()) expected.t = group[r].tmax;  // the group leaves t = tmax
+          wrong += same_hit(expected, hits[r]) ? 0 : 1;
+          wrong += occluded[r] == brute.occluded[i + r] ? 0 : 1;
+        }
+      }
+      EXPECT_EQ(wrong, 0u) << name << " " << builder;
+    }
+  }
+}
+
 TEST(Bvh, TreeAndHitsDoNotDependOnThreadCount) {
   const Reference& ref = reference(vendored_file(kHorse));
   for (const std::string builder : {"binned", "sbvh"}) {

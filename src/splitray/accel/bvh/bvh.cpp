@@ -166,7 +166,8 @@ void Bvh::intersect(std::span<const Ray> rays, std::span<Hit> hits) const {
     const std::size_t n = std::min<std::size_t>(WideBvh::kPacketRays, rays.size() - i);
     const std::span<const Ray> group = rays.subspan(i, n);
     Hit* out = hits.data() + i;
-    if (!nodes_.empty() && wide_.intersect_packet(group, scene_, magnitude_, out)) {
+    if (!nodes_.empty() && (wide_.intersect_packet(group, scene_, magnitude_, out) ||
+                            wide_.intersect_group(group, scene_, magnitude_, out))) {
       for (std::size_t r = 0; r < n; ++r)
         if (!out[r].found()) out[r] = Hit{};
       continue;
@@ -185,6 +186,8 @@ void Bvh::occluded(std::span<const Ray> rays, std::span<std::uint8_t> result) co
       for (std::size_t r = 0; r < n; ++r) result[i + r] = (*hit >> r) & 1u;
       continue;
     }
+    if (!nodes_.empty() && wide_.occluded_group(group, scene_, magnitude_, result.data() + i))
+      continue;
     for (std::size_t r = 0; r < n; ++r) result[i + r] = occluded(group[r]) ? 1 : 0;
   }
 }

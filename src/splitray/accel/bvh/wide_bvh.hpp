@@ -97,6 +97,14 @@ class WideBvh {
                         bool any_angle = false) const;
   std::optional<unsigned> occluded_packet(std::span<const Ray> rays, const Aabb& scene,
                                           float magnitude, bool any_angle = false) const;
+  // 1 to kPacketRays rays of any directions (the groups that make no packet), each with the
+  // answer of intersect() / occluded() (hits[i]: t = tmax when nothing is hit; occluded[i]: 0
+  // or 1), after one test of the root for eight rays at a time (wide_bvh_group.cpp). False, with
+  // nothing walked, without AVX and FMA.
+  bool intersect_group(std::span<const Ray> rays, const Aabb& scene, float magnitude,
+                       Hit* hits) const;
+  bool occluded_group(std::span<const Ray> rays, const Aabb& scene, float magnitude,
+                      std::uint8_t* occluded) const;
   // intersect(), adding what the ray cost to `counts` (a slower copy of the same walk, after
   // the plain walk).
   Hit intersect_counted(const Ray& ray, const Aabb& scene, float magnitude, const Hit& so_far,

@@ -206,12 +206,22 @@ struct Counting {
 // through a Hit& the caller reloaded t and prim as one 8-byte word written by two 4-byte
 // stores, which the CPU cannot forward, a stall on every ray (single rays that miss the mesh
 // took 17 ns, 3 of them there). kInside: the ray starts inside the scene's box (see walk).
+// kRootTested: `root` holds the ray's test of the root, and the walk starts from its children.
 template <bool AnyHit>
 using WalkResult = std::conditional_t<AnyHit, bool, Hit>;
 
-template <bool AnyHit, bool kInside, class Counts>
+// The root's slab test made for a group of rays at once (wide_bvh_group.cpp), with the float
+// operations of WideSlab: the children this ray enters, and its entry parameters t[i * stride].
+struct RootTest {
+  unsigned mask;
+  const float* t;
+  int stride;
+};
+
+template <bool AnyHit, bool kInside, bool kRootTested, class Counts>
 WalkResult<AnyHit> walk_from(const WideNode* nodes, const TriangleBlock* blocks, const Ray& ray,
-                             const Aabb& scene, float magnitude, Hit best, Counts counts) {
+                             const Aabb& scene, float magnitude, Hit best, Counts counts,
+                             const RootTest* root) {
   const RobustRay r(ray, scene, magnitude);
   const WideSlab slab(r);
   std::optional<WatertightRay> w;  // the triangle test's constants (three divisions)
@@ -220,43 +230,56 @@ WalkResult<AnyHit> walk_from(const WideNode* nodes, const TriangleBlock* blocks,
   const float tmin = ray.tmin;  // best.t: the far end of every test (tmax for an any-hit query)
   TraversalStack<Entry, kStackSize> stack;
   Entry current{0, 0, 0};  // the root
+  // Enters the nearest of the children of `n` in `mask` (entry parameters t[i * stride]) and
+  // pushes the others. Most nodes are entered through one or two children: those take no loop,
+  // because the walk's time goes mostly to mispredicted branches (diffuse rays through the
+  // faerie took 2.2 times as long as the same rays repeated, whose branches the CPU learns),
+  // and a loop's exit is one more. Each child is asked for as it is taken, so the memory loads
+  // overlap instead of waiting for each other. (Forcing the two `? :` below into masks or SSE
+  // blends measured level.)
+  const auto descend = [&](const WideNode& n, unsigned mask, const float* t, int stride) {
+    const auto enter = [&](unsigned& m) {
+      const int i = std::countr_zero(m);
+      m &= m - 1;
+      const Entry e{n.child[i], n.count[i], t[i * stride]};
+      const char* node = reinterpret_cast<const char*>(nodes + e.child);
+      const char* block = reinterpret_cast<const char*>(blocks + e.child);
+      prefetch<std::max(sizeof(WideNode), sizeof(TriangleBlock))>(e.count == 0 ? node : block);
+      return e;
+    };
+    Entry nearest = enter(mask);
+    if (mask != 0) {
+      const Entry second = enter(mask);
+      const bool closer = second.t0 < nearest.t0;
+      const Entry farther = closer ? nearest : second;
+      nearest = closer ? second : nearest;
+      const int mark = stack.size();
+      stack.push(farther);
+      while (mask != 0) {  // three or more: the others in order on the stack
+        Entry e = enter(mask);
+        if (e.t0 < nearest.t0) std::swap(e, nearest);
+        stack.push_ordered(e, mark);
+      }
+    }
+    current = nearest;
+  };
+  if constexpr (kRootTested) {
+    if (root->mask == 0) {
+      if constexpr (AnyHit)
+        return false;
+      else
+        return best;
+    }
+    descend(nodes[0], root->mask, root->t, root->stride);
+  }
   for (;;) {
     if (current.count == 0) {  // a wide node: enter the nearest hit child, push the others
       const WideNode& n = nodes[current.child];
       counts.node(n);
       alignas(64) float t_entry[kWideWidth];
-      unsigned mask = slab.test(n, tmin, best.t, t_entry);
+      const unsigned mask = slab.test(n, tmin, best.t, t_entry);
       if (mask != 0) {
-        // The children the ray enters, nearest first. Most nodes are entered through one or two
-        // children: those take no loop, because the walk's time goes mostly to mispredicted
-        // branches (diffuse rays through the faerie took 2.2 times as long as the same rays
-        // repeated, whose branches the CPU learns), and a loop's exit is one more. Each child is
-        // asked for as it is taken, so the memory loads overlap instead of waiting for each
-        // other. (Forcing the two `? :` below into masks or SSE blends measured level.)
-        const auto enter = [&](unsigned& m) {
-          const int i = std::countr_zero(m);
-          m &= m - 1;
-          const Entry e{n.child[i], n.count[i], t_entry[i]};
-          const char* node = reinterpret_cast<const char*>(nodes + e.child);
-          const char* block = reinterpret_cast<const char*>(blocks + e.child);
-          prefetch<std::max(sizeof(WideNode), sizeof(TriangleBlock))>(e.count == 0 ? node : block);
-          return e;
-        };
-        Entry nearest = enter(mask);
-        if (mask != 0) {
-          const Entry second = enter(mask);
-          const bool closer = second.t0 < nearest.t0;
-          const Entry farther = closer ? nearest : second;
-          nearest = closer ? second : nearest;
-          const int mark = stack.size();
-          stack.push(farther);
-          while (mask != 0) {  // three or more: the others in order on the stack
-            Entry e = enter(mask);
-            if (e.t0 < nearest.t0) std::swap(e, nearest);
-            stack.push_ordered(e, mark);
-          }
-        }
-        current = nearest;
+        descend(n, mask, t_entry, 1);
         continue;
       }
     } else {  // a leaf: its blocks of eight triangles
@@ -292,8 +315,22 @@ template <bool AnyHit, class Counts = NoCounts>
 WalkResult<AnyHit> walk(const WideNode* nodes, const TriangleBlock* blocks, const Ray& ray,
                         const Aabb& scene, float magnitude, Hit best, Counts counts = {}) {
   return starts_inside(ray, scene)
-             ? walk_from<AnyHit, true>(nodes, blocks, ray, scene, magnitude, best, counts)
-             : walk_from<AnyHit, false>(nodes, blocks, ray, scene, magnitude, best, counts);
+             ? walk_from<AnyHit, true, false>(nodes, blocks, ray, scene, magnitude, best, counts,
+                                              nullptr)
+             : walk_from<AnyHit, false, false>(nodes, blocks, ray, scene, magnitude, best, counts,
+                                               nullptr);
+}
+
+// The same walk from the ray's test of the root, made already (a group's, wide_bvh_group.cpp).
+template <bool AnyHit>
+WalkResult<AnyHit> walk_below_root(const WideNode* nodes, const TriangleBlock* blocks,
+                                   const Ray& ray, const Aabb& scene, float magnitude, Hit best,
+                                   const RootTest& root) {
+  return starts_inside(ray, scene)
+             ? walk_from<AnyHit, true, true>(nodes, blocks, ray, scene, magnitude, best, NoCounts{},
+                                             &root)
+             : walk_from<AnyHit, false, true>(nodes, blocks, ray, scene, magnitude, best,
+                                              NoCounts{}, &root);
 }
 
 }  // namespace splitray::wide_bvh

@@ -1,0 +1,147 @@
+// Groups of rays that make no packet (wide_bvh_packet.cpp), in the batched calls: the root's
+// slab test made for eight rays at once, a ray per 256-bit lane, then each ray walks alone from
+// the children it entered (wide_bvh_walk.hpp), as Embree's rtcIntersect8 tests the root once
+// for the rays of a packet. The root's test heads every ray's chain of dependent steps; made for
+// eight independent rays together, the tests overlap, and each walk starts with the fetch of its
+// first child: diffuse rays in batched calls 1.02-1.34 times as fast (docs/experiments.md,
+// traversal round 9). The same test in 512-bit lanes lowered the clock of the Intel core it ran
+// on for the walks around it (every diffuse ray 15-25% slower), so the lanes are 256 bits wide.
+#include "splitray/accel/bvh/wide_bvh.hpp"
+
+#if defined(__AVX__) && defined(__FMA__)
+#include <immintrin.h>
+
+#include <algorithm>
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+
+#include "splitray/accel/bvh/wide_bvh_walk.hpp"
+#include "splitray/core/simd.hpp"
+
+namespace splitray {
+
+namespace {
+
+using F8 = simd::Float8;
+constexpr int kGroupLanes = 8;
+
+// The root tests of up to eight rays (`n`; lanes beyond repeat the first ray): for each ray the
+// children it enters (`entered`) and its entry parameters (`t_entry[child][ray]`). Lane by lane
+// these are RobustRay's and WideSlab's float operations, so each ray enters the children its
+// single-ray walk would, with the same entry parameters.
+void test_root(const WideNode& root, const Ray* rays, int n, const Aabb& scene, float magnitude,
+               std::uint32_t (&entered)[kGroupLanes], float (&t_entry)[kWideWidth][kGroupLanes]) {
+  static_assert(sizeof(Ray) == 8 * sizeof(float) && offsetof(Ray, tmax) == 7 * sizeof(float));
+  // The rays' floats, field by field: an 8 x 8 transpose of the eight rays' rows.
+  __m256 row[8], pair[8], quad[8];
+  for (int r = 0; r < 8; ++r) row[r] = _mm256_loadu_ps(&rays[r < n ? r : 0].org.x);
+  for (int k = 0; k < 4; ++k) {
+    pair[2 * k] = _mm256_unpacklo_ps(row[2 * k], row[2 * k + 1]);
+    pair[2 * k + 1] = _mm256_unpackhi_ps(row[2 * k], row[2 * k + 1]);
+  }
+  for (int k = 0; k < 2; ++k) {
+    const __m256 *a = &pair[4 * k], *b = &pair[4 * k + 2];
+    quad[4 * k] = _mm256_shuffle_ps(a[0], b[0], _MM_SHUFFLE(1, 0, 1, 0));
+    quad[4 * k + 1] = _mm256_shuffle_ps(a[0], b[0], _MM_SHUFFLE(3, 2, 3, 2));
+    quad[4 * k + 2] = _mm256_shuffle_ps(a[1], b[1], _MM_SHUFFLE(1, 0, 1, 0));
+    quad[4 * k + 3] = _mm256_shuffle_ps(a[1], b[1], _MM_SHUFFLE(3, 2, 3, 2));
+  }
+  F8 field[8];
+  for (int k = 0; k < 4; ++k) {
+    field[k] = _mm256_permute2f128_ps(quad[k], quad[k + 4], 0x20);
+    field[k + 4] = _mm256_permute2f128_ps(quad[k], quad[k + 4], 0x31);
+  }
+  const F8* org = field;
+  const F8* dir = field + 3;
+
+  // RobustRay's constants.
+  const F8 max_dir = max(max(abs(dir[0]), abs(dir[1])), abs(dir[2]));
+  const F8 tiny =
+      max(max_dir * F8::broadcast(0x1p-40f), F8::broadcast(std::numeric_limits<float>::min()));
+  F8 far[3];
+  for (int a = 0; a < 3; ++a)
+    far[a] =
+        max(abs(org[a] - F8::broadcast(scene.lo[a])), abs(org[a] - F8::broadcast(scene.hi[a])));
+  const F8 delta =
+      F8::broadcast(0x1p-18f) * (((far[0] + far[1]) + far[2]) + F8::broadcast(magnitude));
+  F8 inv[3], org_near[3], org_far[3];  // WideSlab's: the origins moved by -+delta, times inv
+  for (int a = 0; a < 3; ++a) {
+    const F8 safe = select(abs(dir[a]) < tiny, with_sign(tiny, dir[a]), dir[a]);
+    const F8 step = with_sign(delta, dir[a]);
+    inv[a] = F8::broadcast(1.0f) / safe;
+    org_near[a] = (org[a] + step) * inv[a];
+    org_far[a] = (org[a] - step) * inv[a];
+  }
+
+  // WideSlab::test, a child at a time for all rays; each ray's sign bit picks its planes.
+  __m256i masks = _mm256_setzero_si256();
+  for (int i = 0; i < kWideWidth; ++i) {
+    F8 t0 = field[6], t1 = field[7];  // tmin, tmax
+    for (int a = 0; a < 3; ++a) {
+      const __m256 lo = _mm256_set1_ps(root.planes[a][i]);
+      const __m256 hi = _mm256_set1_ps(root.planes[3 + a][i]);
+      t0 = max(fmsub(_mm256_blendv_ps(lo, hi, dir[a].v), inv[a], org_near[a]), t0);
+      t1 = min(fmsub(_mm256_blendv_ps(hi, lo, dir[a].v), inv[a], org_far[a]), t1);
+    }
+    _mm256_store_ps(t_entry[i], t0.v);
+    masks = _mm256_or_si256(
+        masks, _mm256_and_si256(_mm256_castps_si256((t0 <= t1).m), _mm256_set1_epi32(1 << i)));
+  }
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(entered), masks);
+}
+
+// Each ray's answer as walk<AnyHit> gives it: `answer(r, result)` gets ray r's.
+template <bool AnyHit, class Answer>
+void walk_group(const WideNode* nodes, const TriangleBlock* blocks, std::span<const Ray> rays,
+                const Aabb& scene, float magnitude, const Answer& answer) {
+  const int n = static_cast<int>(rays.size());
+  for (int first = 0; first < n; first += kGroupLanes) {
+    const int count = std::min(kGroupLanes, n - first);
+    alignas(32) std::uint32_t entered[kGroupLanes];
+    alignas(32) float t_entry[kWideWidth][kGroupLanes];
+    test_root(*nodes, rays.data() + first, count, scene, magnitude, entered, t_entry);
+    for (int r = 0; r < count; ++r) {
+      const Ray& ray = rays[static_cast<std::size_t>(first + r)];
+      Hit far_end;
+      far_end.t = ray.tmax;
+      const wide_bvh::RootTest root{entered[r], &t_entry[0][r], kGroupLanes};
+      answer(first + r, wide_bvh::walk_below_root<AnyHit>(nodes, blocks, ray, scene, magnitude,
+                                                          far_end, root));
+    }
+  }
+}
+
+}  // namespace
+
+bool WideBvh::intersect_group(std::span<const Ray> rays, const Aabb& scene, float magnitude,
+                              Hit* hits) const {
+  walk_group<false>(nodes_.data(), blocks_.data(), rays, scene, magnitude,
+                    [&](int r, const Hit& hit) { hits[r] = hit; });
+  return true;
+}
+
+bool WideBvh::occluded_group(std::span<const Ray> rays, const Aabb& scene, float magnitude,
+                             std::uint8_t* occluded) const {
+  walk_group<true>(nodes_.data(), blocks_.data(), rays, scene, magnitude,
+                   [&](int r, bool hit) { occluded[r] = hit ? 1 : 0; });
+  return true;
+}
+
+}  // namespace splitray
+
+#else
+
+namespace splitray {
+
+bool WideBvh::intersect_group(std::span<const Ray>, const Aabb&, float, Hit*) const {
+  return false;
+}
+
+bool WideBvh::occluded_group(std::span<const Ray>, const Aabb&, float, std::uint8_t*) const {
+  return false;
+}
+
+}  // namespace splitray
+
+#endif
