@@ -24,7 +24,7 @@ namespace splitray {
 namespace {
 
 using F8 = simd::Float8;
-constexpr int kGroupLanes = 8;
+constexpr std::size_t kGroupLanes = 8;
 
 // The root tests of up to eight rays (`n`; lanes beyond repeat the first ray): for each ray the
 // children it enters (`entered`) and its entry parameters (`t_entry[child][ray]`). Lane by lane
@@ -36,11 +36,11 @@ void test_root(const WideNode& root, const Ray* rays, int n, const Aabb& scene, 
   // The rays' floats, field by field: an 8 x 8 transpose of the eight rays' rows.
   __m256 row[8], pair[8], quad[8];
   for (int r = 0; r < 8; ++r) row[r] = _mm256_loadu_ps(&rays[r < n ? r : 0].org.x);
-  for (int k = 0; k < 4; ++k) {
+  for (std::size_t k = 0; k < 4; ++k) {
     pair[2 * k] = _mm256_unpacklo_ps(row[2 * k], row[2 * k + 1]);
     pair[2 * k + 1] = _mm256_unpackhi_ps(row[2 * k], row[2 * k + 1]);
   }
-  for (int k = 0; k < 2; ++k) {
+  for (std::size_t k = 0; k < 2; ++k) {
     const __m256 *a = &pair[4 * k], *b = &pair[4 * k + 2];
     quad[4 * k] = _mm256_shuffle_ps(a[0], b[0], _MM_SHUFFLE(1, 0, 1, 0));
     quad[4 * k + 1] = _mm256_shuffle_ps(a[0], b[0], _MM_SHUFFLE(3, 2, 3, 2));
@@ -48,7 +48,7 @@ void test_root(const WideNode& root, const Ray* rays, int n, const Aabb& scene, 
     quad[4 * k + 3] = _mm256_shuffle_ps(a[1], b[1], _MM_SHUFFLE(3, 2, 3, 2));
   }
   F8 field[8];
-  for (int k = 0; k < 4; ++k) {
+  for (std::size_t k = 0; k < 4; ++k) {
     field[k] = _mm256_permute2f128_ps(quad[k], quad[k + 4], 0x20);
     field[k + 4] = _mm256_permute2f128_ps(quad[k], quad[k + 4], 0x31);
   }
@@ -95,18 +95,18 @@ void test_root(const WideNode& root, const Ray* rays, int n, const Aabb& scene, 
 template <bool AnyHit, class Answer>
 void walk_group(const WideNode* nodes, const TriangleBlock* blocks, std::span<const Ray> rays,
                 const Aabb& scene, float magnitude, const Answer& answer) {
-  const int n = static_cast<int>(rays.size());
-  for (int first = 0; first < n; first += kGroupLanes) {
-    const int count = std::min(kGroupLanes, n - first);
+  for (std::size_t first = 0; first < rays.size(); first += kGroupLanes) {
+    const std::span<const Ray> group =
+        rays.subspan(first, std::min<std::size_t>(kGroupLanes, rays.size() - first));
     alignas(32) std::uint32_t entered[kGroupLanes];
     alignas(32) float t_entry[kWideWidth][kGroupLanes];
-    test_root(*nodes, rays.data() + first, count, scene, magnitude, entered, t_entry);
-    for (int r = 0; r < count; ++r) {
-      const Ray& ray = rays[static_cast<std::size_t>(first + r)];
+    test_root(*nodes, group.data(), static_cast<int>(group.size()), scene, magnitude, entered,
+              t_entry);
+    for (std::size_t r = 0; r < group.size(); ++r) {
       Hit far_end;
-      far_end.t = ray.tmax;
+      far_end.t = group[r].tmax;
       const wide_bvh::RootTest root{entered[r], &t_entry[0][r], kGroupLanes};
-      answer(first + r, wide_bvh::walk_below_root<AnyHit>(nodes, blocks, ray, scene, magnitude,
+      answer(first + r, wide_bvh::walk_below_root<AnyHit>(nodes, blocks, group[r], scene, magnitude,
                                                           far_end, root));
     }
   }
@@ -117,14 +117,14 @@ void walk_group(const WideNode* nodes, const TriangleBlock* blocks, std::span<co
 bool WideBvh::intersect_group(std::span<const Ray> rays, const Aabb& scene, float magnitude,
                               Hit* hits) const {
   walk_group<false>(nodes_.data(), blocks_.data(), rays, scene, magnitude,
-                    [&](int r, const Hit& hit) { hits[r] = hit; });
+                    [&](std::size_t r, const Hit& hit) { hits[r] = hit; });
   return true;
 }
 
 bool WideBvh::occluded_group(std::span<const Ray> rays, const Aabb& scene, float magnitude,
                              std::uint8_t* occluded) const {
   walk_group<true>(nodes_.data(), blocks_.data(), rays, scene, magnitude,
-                   [&](int r, bool hit) { occluded[r] = hit ? 1 : 0; });
+                   [&](std::size_t r, bool hit) { occluded[r] = hit ? 1 : 0; });
   return true;
 }
 

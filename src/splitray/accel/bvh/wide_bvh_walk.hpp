@@ -215,7 +215,7 @@ using WalkResult = std::conditional_t<AnyHit, bool, Hit>;
 struct RootTest {
   unsigned mask;
   const float* t;
-  int stride;
+  std::ptrdiff_t stride;
 };
 
 template <bool AnyHit, bool kInside, bool kRootTested, class Counts>
@@ -237,11 +237,12 @@ WalkResult<AnyHit> walk_from(const WideNode* nodes, const TriangleBlock* blocks,
   // and a loop's exit is one more. Each child is asked for as it is taken, so the memory loads
   // overlap instead of waiting for each other. (Forcing the two `? :` below into masks or SSE
   // blends measured level.)
-  const auto descend = [&](const WideNode& n, unsigned mask, const float* t, int stride) {
+  const auto descend = [&](const WideNode& n, unsigned mask, const float* t,
+                           std::ptrdiff_t stride) {
     const auto enter = [&](unsigned& m) {
       const int i = std::countr_zero(m);
       m &= m - 1;
-      const Entry e{n.child[i], n.count[i], t[i * stride]};
+      const Entry e{n.child[i], n.count[i], t[static_cast<std::ptrdiff_t>(i) * stride]};
       const char* node = reinterpret_cast<const char*>(nodes + e.child);
       const char* block = reinterpret_cast<const char*>(blocks + e.child);
       prefetch<std::max(sizeof(WideNode), sizeof(TriangleBlock))>(e.count == 0 ? node : block);
