@@ -4,8 +4,8 @@
 // for the rays of a packet. The root's test heads every ray's chain of dependent steps; made for
 // eight independent rays together, the tests overlap, and each walk starts with the fetch of its
 // first child: diffuse rays in batched calls 1.02-1.34 times as fast (docs/experiments.md,
-// traversal round 9). The same test in 512-bit lanes lowered the clock of the Intel core it ran
-// on for the walks around it (every diffuse ray 15-25% slower), so the lanes are 256 bits wide.
+// traversal round 9). The same test in 512-bit lanes slowed the 256-bit walks around it on the
+// Intel core it was measured on (every diffuse ray 15-25% slower), so the lanes are 256 bits.
 #include "splitray/accel/bvh/wide_bvh.hpp"
 
 #if defined(__AVX__) && defined(__FMA__)
