@@ -74,8 +74,8 @@ struct RobustRay {
   }
 
   // `scene` bounds every primitive; `magnitude` is coordinate_magnitude(scene). The BVH's
-  // packets repeat these operations for 16 rays at once (packet_constants in
-  // bvh/wide_bvh_packet.cpp): a change here must be made there too.
+  // packets and groups repeat these operations for several rays at once (slab_lanes in
+  // bvh/wide_bvh_walk.hpp): a change here must be made there too.
   RobustRay(const Ray& ray, const Aabb& scene, float magnitude) {
     org = ray.org;
     max_dir = max_component(abs(ray.dir));

@@ -14,7 +14,6 @@
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
-#include <limits>
 
 #include "splitray/accel/bvh/wide_bvh_walk.hpp"
 #include "splitray/core/simd.hpp"
@@ -52,27 +51,9 @@ void test_root(const WideNode& root, const Ray* rays, int n, const Aabb& scene, 
     field[k] = _mm256_permute2f128_ps(quad[k], quad[k + 4], 0x20);
     field[k + 4] = _mm256_permute2f128_ps(quad[k], quad[k + 4], 0x31);
   }
-  const F8* org = field;
-  const F8* dir = field + 3;
-
-  // RobustRay's constants.
-  const F8 max_dir = max(max(abs(dir[0]), abs(dir[1])), abs(dir[2]));
-  const F8 tiny =
-      max(max_dir * F8::broadcast(0x1p-40f), F8::broadcast(std::numeric_limits<float>::min()));
-  F8 far[3];
-  for (int a = 0; a < 3; ++a)
-    far[a] =
-        max(abs(org[a] - F8::broadcast(scene.lo[a])), abs(org[a] - F8::broadcast(scene.hi[a])));
-  const F8 delta =
-      F8::broadcast(0x1p-18f) * (((far[0] + far[1]) + far[2]) + F8::broadcast(magnitude));
-  F8 inv[3], org_near[3], org_far[3];  // WideSlab's: the origins moved by -+delta, times inv
-  for (int a = 0; a < 3; ++a) {
-    const F8 safe = select(abs(dir[a]) < tiny, with_sign(tiny, dir[a]), dir[a]);
-    const F8 step = with_sign(delta, dir[a]);
-    inv[a] = F8::broadcast(1.0f) / safe;
-    org_near[a] = (org[a] + step) * inv[a];
-    org_far[a] = (org[a] - step) * inv[a];
-  }
+  const F8 org[3] = {field[0], field[1], field[2]};
+  const F8 dir[3] = {field[3], field[4], field[5]};
+  const wide_bvh::SlabLanes<F8> slab = wide_bvh::slab_lanes(org, dir, scene, magnitude);
 
   // WideSlab::test, a child at a time for all rays; each ray's sign bit picks its planes.
   __m256i masks = _mm256_setzero_si256();
@@ -81,8 +62,8 @@ void test_root(const WideNode& root, const Ray* rays, int n, const Aabb& scene, 
     for (int a = 0; a < 3; ++a) {
       const __m256 lo = _mm256_set1_ps(root.planes[a][i]);
       const __m256 hi = _mm256_set1_ps(root.planes[3 + a][i]);
-      t0 = max(fmsub(_mm256_blendv_ps(lo, hi, dir[a].v), inv[a], org_near[a]), t0);
-      t1 = min(fmsub(_mm256_blendv_ps(hi, lo, dir[a].v), inv[a], org_far[a]), t1);
+      t0 = max(fmsub(_mm256_blendv_ps(lo, hi, dir[a].v), slab.inv[a], slab.org_near[a]), t0);
+      t1 = min(fmsub(_mm256_blendv_ps(hi, lo, dir[a].v), slab.inv[a], slab.org_far[a]), t1);
     }
     _mm256_store_ps(t_entry[i], t0.v);
     masks = _mm256_or_si256(

@@ -17,7 +17,6 @@
 #include <bit>
 #include <cmath>
 #include <cstddef>
-#include <limits>
 #include <new>
 #include <optional>
 #include <type_traits>
@@ -101,7 +100,7 @@ bool coherent(const Ray* rays, int n, const PacketLoad& load, bool any_angle) {
 // by lane (so each equals the single-ray walk's), for all rays in one pass instead of ray by
 // ray (on the Cornell box, a third of a packet's time went to making them one at a time).
 struct PacketRays {
-  F org_near[3], org_far[3], inv[3];  // RobustRay's org_near * inv, org_far * inv, inv
+  wide_bvh::SlabLanes<F> slab;  // RobustRay's inv, org_near * inv, org_far * inv
   F tmin, tmax;
   std::optional<WatertightPacket> triangles;  // when the rays share the test's axis order
 };
@@ -109,24 +108,7 @@ struct PacketRays {
 PacketRays packet_constants(const PacketLoad& load, const Aabb& scene, float magnitude) {
   const F org[3] = {load.field(0), load.field(1), load.field(2)};
   const F dir[3] = {load.field(3), load.field(4), load.field(5)};
-  PacketRays p;
-  p.tmin = load.field(6);
-  p.tmax = load.field(7);
-  const F max_dir = max(abs(dir[0]), max(abs(dir[1]), abs(dir[2])));
-  const F tiny =
-      max(max_dir * F::broadcast(0x1p-40f), F::broadcast(std::numeric_limits<float>::min()));
-  const Vec3 lo = scene.lo, hi = scene.hi;
-  F far[3];
-  for (int a = 0; a < 3; ++a)
-    far[a] = max(abs(org[a] - F::broadcast(lo[a])), abs(org[a] - F::broadcast(hi[a])));
-  const F delta = F::broadcast(0x1p-18f) * (((far[0] + far[1]) + far[2]) + F::broadcast(magnitude));
-  for (int a = 0; a < 3; ++a) {
-    const F safe = select(abs(dir[a]) < tiny, with_sign(tiny, dir[a]), dir[a]);
-    const F step = with_sign(delta, dir[a]);  // +-delta by the direction's sign
-    p.inv[a] = F::broadcast(1.0f) / safe;
-    p.org_near[a] = (org[a] + step) * p.inv[a];
-    p.org_far[a] = (org[a] - step) * p.inv[a];
-  }
+  PacketRays p{wide_bvh::slab_lanes(org, dir, scene, magnitude), load.field(6), load.field(7), {}};
   int k[3];
   if (WatertightPacket::shared_axes(dir, load.lanes(), k)) p.triangles.emplace(org, dir, k);
   return p;
@@ -197,9 +179,9 @@ unsigned traverse_packet(std::span<const WideNode> node_span,
     near[a] = negative ? 3 + a : a;
     far[a] = negative ? a : 3 + a;
   }
-  const F* const v_org_near = p.org_near;
-  const F* const v_org_far = p.org_far;
-  const F* const v_inv = p.inv;
+  const F* const v_org_near = p.slab.org_near;
+  const F* const v_org_far = p.slab.org_far;
+  const F* const v_inv = p.slab.inv;
   const F v_tmin = p.tmin;
   alignas(64) float tmin[kLanes], tmax[kLanes];
   v_tmin.store(tmin);

@@ -14,6 +14,7 @@
 #include <bit>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <type_traits>
 
@@ -90,6 +91,37 @@ struct WideSlab {  // the portable build: one slot at a time
     return mask;
   }
 };
+#endif
+
+#if defined(__AVX__)
+// The slab test's constants of several rays, a SIMD lane each (F: simd::Float8 or Float16):
+// RobustRay's float operations lane by lane, so each lane holds what WideSlab holds for its
+// ray (the inverse direction, and the origin moved by -+delta times it). Shared by the packets
+// (wide_bvh_packet.cpp) and the groups' test of the root (wide_bvh_group.cpp).
+template <class F>
+struct SlabLanes {
+  F inv[3], org_near[3], org_far[3];
+};
+
+template <class F>
+SlabLanes<F> slab_lanes(const F (&org)[3], const F (&dir)[3], const Aabb& scene, float magnitude) {
+  const F max_dir = max(abs(dir[0]), max(abs(dir[1]), abs(dir[2])));
+  const F tiny =
+      max(max_dir * F::broadcast(0x1p-40f), F::broadcast(std::numeric_limits<float>::min()));
+  F far[3];
+  for (int a = 0; a < 3; ++a)
+    far[a] = max(abs(org[a] - F::broadcast(scene.lo[a])), abs(org[a] - F::broadcast(scene.hi[a])));
+  const F delta = F::broadcast(0x1p-18f) * (((far[0] + far[1]) + far[2]) + F::broadcast(magnitude));
+  SlabLanes<F> s;
+  for (int a = 0; a < 3; ++a) {
+    const F safe = select(abs(dir[a]) < tiny, with_sign(tiny, dir[a]), dir[a]);
+    const F step = with_sign(delta, dir[a]);  // +-delta by the direction's sign
+    s.inv[a] = F::broadcast(1.0f) / safe;
+    s.org_near[a] = (org[a] + step) * s.inv[a];
+    s.org_far[a] = (org[a] - step) * s.inv[a];
+  }
+  return s;
+}
 #endif
 
 // Asks for the cache lines of a node, or of a leaf's first block, before they are needed.
