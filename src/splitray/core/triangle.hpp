@@ -31,17 +31,31 @@ struct WatertightRay {
   float sx, sy, sz;
 
   // Made without branches on the direction (max_axis, the swap): a diffuse ray's direction is
-  // random, and such branches are mispredicted about half the time.
+  // random, and such branches are mispredicted about half the time. The BVH's groups of rays
+  // make the same float operations for eight rays at once (group_rays in
+  // accel/bvh/wide_bvh_group.cpp): a change here must be made there too.
   explicit WatertightRay(const Ray& ray) : org(ray.org) {
     const float d[3] = {ray.dir.x, ray.dir.y, ray.dir.z};  // indexed without branches
-    kz = max_axis(abs(ray.dir));
-    const int next = kz + 1 - 3 * static_cast<int>(kz == 2), after = 3 - kz - next;
-    const int swap = -static_cast<int>(d[kz] < 0);  // keep the winding of the triangles
-    kx = next ^ ((next ^ after) & swap);
-    ky = after ^ ((next ^ after) & swap);
+    const int largest = max_axis(abs(ray.dir));
+    set_axes(largest, d[largest] < 0);
     sx = d[kx] / d[kz];
     sy = d[ky] / d[kz];
     sz = 1.0f / d[kz];
+  }
+  // From the parts made elsewhere: the direction's largest axis, whether the direction is
+  // negative along it, and the three quotients.
+  WatertightRay(const Vec3& origin, int largest, bool negative, float x, float y, float z)
+      : org(origin), sx(x), sy(y), sz(z) {
+    set_axes(largest, negative);
+  }
+
+ private:
+  void set_axes(int largest, bool negative) {
+    kz = largest;
+    const int next = kz + 1 - 3 * static_cast<int>(kz == 2), after = 3 - kz - next;
+    const int swap = -static_cast<int>(negative);  // keep the winding of the triangles
+    kx = next ^ ((next ^ after) & swap);
+    ky = after ^ ((next ^ after) & swap);
   }
 };
 

@@ -23,14 +23,15 @@ namespace splitray {
 namespace {
 
 using F8 = simd::Float8;
-constexpr std::size_t kGroupLanes = 8;
+using wide_bvh::GroupRays;
+using wide_bvh::kGroupLanes;
 
-// The root tests of up to eight rays (`n`; lanes beyond repeat the first ray): for each ray the
-// children it enters (`entered`) and its entry parameters (`t_entry[child][ray]`). Lane by lane
-// these are RobustRay's and WideSlab's float operations, so each ray enters the children its
-// single-ray walk would, with the same entry parameters.
-void test_root(const WideNode& root, const Ray* rays, int n, const Aabb& scene, float magnitude,
-               std::uint32_t (&entered)[kGroupLanes], float (&t_entry)[kWideWidth][kGroupLanes]) {
+// The constants of up to eight rays (`n`; lanes beyond repeat the first ray) and their test of
+// the root (GroupRays). Lane by lane these are the float operations of RobustRay, WatertightRay
+// and WideSlab, so each ray enters the children its single-ray walk would, with the same entry
+// parameters, and tests triangles with the same constants.
+void group_rays(const WideNode& root, const Ray* rays, int n, const Aabb& scene, float magnitude,
+                GroupRays& g) {
   static_assert(sizeof(Ray) == 8 * sizeof(float) && offsetof(Ray, tmax) == 7 * sizeof(float));
   // The rays' floats, field by field: an 8 x 8 transpose of the eight rays' rows.
   __m256 row[8], pair[8], quad[8];
@@ -53,9 +54,41 @@ void test_root(const WideNode& root, const Ray* rays, int n, const Aabb& scene, 
   }
   const F8 org[3] = {field[0], field[1], field[2]};
   const F8 dir[3] = {field[3], field[4], field[5]};
-  const wide_bvh::SlabLanes<F8> slab = wide_bvh::slab_lanes(org, dir, scene, magnitude);
 
-  // WideSlab::test, a child at a time for all rays; each ray's sign bit picks its planes.
+  // RobustRay and WideSlab.
+  const wide_bvh::SlabLanes<F8> slab = wide_bvh::slab_lanes(org, dir, scene, magnitude);
+  simd::Mask8 inside{_mm256_castsi256_ps(_mm256_set1_epi32(-1))};
+  for (int a = 0; a < 3; ++a) {
+    slab.inv[a].store(g.inv[a]);
+    slab.org_near[a].store(g.org_near[a]);
+    slab.org_far[a].store(g.org_far[a]);
+    g.negative[a] = static_cast<unsigned>(_mm256_movemask_ps(dir[a]));
+    inside =
+        inside & (F8::broadcast(scene.lo[a]) <= org[a]) & (org[a] <= F8::broadcast(scene.hi[a]));
+  }
+  g.inside = inside.bits();
+
+  // WatertightRay: the largest axis of the direction (max_axis), the next two in order (swapped
+  // where the direction is negative along it) and the three quotients.
+  const F8 ax = abs(dir[0]), ay = abs(dir[1]), az = abs(dir[2]);
+  const simd::Mask8 x_ge_y = ax >= ay;
+  const simd::Mask8 x_largest = x_ge_y & (ax >= az);
+  const simd::Mask8 y_largest{_mm256_andnot_ps(x_ge_y.m, (ay >= az).m)};
+  const auto pick = [&](const F8& if_x, const F8& if_y, const F8& if_z) {
+    return select(x_largest, if_x, select(y_largest, if_y, if_z));
+  };
+  const F8 d_kz = pick(dir[0], dir[1], dir[2]);
+  const F8 d_next = pick(dir[1], dir[2], dir[0]), d_after = pick(dir[2], dir[0], dir[1]);
+  const simd::Mask8 negative = d_kz < F8::zero();
+  (select(negative, d_after, d_next) / d_kz).store(g.s[0]);
+  (select(negative, d_next, d_after) / d_kz).store(g.s[1]);
+  (F8::broadcast(1.0f) / d_kz).store(g.s[2]);
+  g.x_largest = x_largest.bits();
+  g.y_largest = y_largest.bits();
+  g.kz_negative = negative.bits();
+
+  // WideSlab::test of the root, a child at a time for all rays; each ray's sign bit picks its
+  // planes.
   __m256i masks = _mm256_setzero_si256();
   for (int i = 0; i < kWideWidth; ++i) {
     F8 t0 = field[6], t1 = field[7];  // tmin, tmax
@@ -65,11 +98,11 @@ void test_root(const WideNode& root, const Ray* rays, int n, const Aabb& scene, 
       t0 = max(fmsub(_mm256_blendv_ps(lo, hi, dir[a].v), slab.inv[a], slab.org_near[a]), t0);
       t1 = min(fmsub(_mm256_blendv_ps(hi, lo, dir[a].v), slab.inv[a], slab.org_far[a]), t1);
     }
-    _mm256_store_ps(t_entry[i], t0.v);
+    t0.store(g.t_entry[i]);
     masks = _mm256_or_si256(
         masks, _mm256_and_si256(_mm256_castps_si256((t0 <= t1).m), _mm256_set1_epi32(1 << i)));
   }
-  _mm256_storeu_si256(reinterpret_cast<__m256i*>(entered), masks);
+  _mm256_store_si256(reinterpret_cast<__m256i*>(g.entered), masks);
 }
 
 // Each ray's answer as walk<AnyHit> gives it: `answer(r, result)` gets ray r's.
@@ -79,16 +112,14 @@ void walk_group(const WideNode* nodes, const TriangleBlock* blocks, std::span<co
   for (std::size_t first = 0; first < rays.size(); first += kGroupLanes) {
     const std::span<const Ray> group =
         rays.subspan(first, std::min<std::size_t>(kGroupLanes, rays.size() - first));
-    alignas(32) std::uint32_t entered[kGroupLanes];
-    alignas(32) float t_entry[kWideWidth][kGroupLanes];
-    test_root(*nodes, group.data(), static_cast<int>(group.size()), scene, magnitude, entered,
-              t_entry);
+    GroupRays g;
+    group_rays(*nodes, group.data(), static_cast<int>(group.size()), scene, magnitude, g);
     for (std::size_t r = 0; r < group.size(); ++r) {
       Hit far_end;
       far_end.t = group[r].tmax;
-      const wide_bvh::RootTest root{entered[r], &t_entry[0][r], kGroupLanes};
-      answer(first + r, wide_bvh::walk_below_root<AnyHit>(nodes, blocks, group[r], scene, magnitude,
-                                                          far_end, root));
+      answer(first + r,
+             wide_bvh::walk_in_group<AnyHit>(nodes, blocks, group[r], scene, magnitude, far_end,
+                                             wide_bvh::FromGroup{g, static_cast<int>(r)}));
     }
   }
 }

@@ -26,6 +26,26 @@
 
 namespace splitray::wide_bvh {
 
+#if defined(__AVX__) && defined(__FMA__)
+constexpr int kGroupLanes = 8;
+
+// The constants of a group of up to eight rays that make no packet (wide_bvh_group.cpp), a
+// lane each, made for all of them at once with the float operations that RobustRay,
+// WatertightRay and WideSlab make for one ray, so each ray's walk reads what it would have made
+// (and tests the same boxes and triangles); and the root's slab test, made for all of them.
+struct GroupRays {
+  alignas(32) float inv[3][kGroupLanes];               // WideSlab's inv
+  alignas(32) float org_near[3][kGroupLanes];          // WideSlab's org_near (times inv)
+  alignas(32) float org_far[3][kGroupLanes];           // WideSlab's org_far (times inv)
+  alignas(32) float s[3][kGroupLanes];                 // WatertightRay's sx, sy, sz
+  alignas(32) float t_entry[kWideWidth][kGroupLanes];  // the root's children: entry parameters
+  alignas(32) std::uint32_t entered[kGroupLanes];      // and the children each ray enters
+  // A bit per lane: the direction's sign along each axis (RobustRay's negative); WatertightRay's
+  // largest axis (x, else y, else z) and the sign along it; starts_inside.
+  unsigned negative[3], x_largest, y_largest, kz_negative, inside;
+};
+#endif
+
 // The per-ray constants of the wide slab test: plane rows by direction sign, and the origins
 // times the inverse direction and the inverse broadcast once. A plane's parameter is
 // plane * inv - org * inv in one rounding (fmsub): the extra error of rounding org * inv is below
@@ -42,9 +62,8 @@ struct WideSlab {
   static_assert(Lanes::kLanes == kWideWidth);
   int near[3], far[3];
   Lanes org_near[3], org_far[3], inv[3];
-  const RobustRay& r;
 
-  explicit WideSlab(const RobustRay& ray) : r(ray) {
+  explicit WideSlab(const RobustRay& r) {
     for (int a = 0; a < 3; ++a) {
       near[a] = a + 3 * r.negative[a];  // arithmetic, not a branch on the ray's signs
       far[a] = a + 3 - 3 * r.negative[a];
@@ -53,6 +72,19 @@ struct WideSlab {
       inv[a] = Lanes::broadcast(r.inv[a]);
     }
   }
+#if defined(__AVX__) && defined(__FMA__)
+  // Ray `lane` of a group: loads, where the ray alone makes a division and nine products.
+  WideSlab(const GroupRays& g, int lane) {
+    for (int a = 0; a < 3; ++a) {
+      const int negative = static_cast<int>(g.negative[a] >> lane & 1u);
+      near[a] = a + 3 * negative;
+      far[a] = a + 3 - 3 * negative;
+      org_near[a] = Lanes::broadcast(g.org_near[a][lane]);
+      org_far[a] = Lanes::broadcast(g.org_far[a][lane]);
+      inv[a] = Lanes::broadcast(g.inv[a][lane]);
+    }
+  }
+#endif
 
   // Entry parameters into all slots (within [tmin, tmax]); bit i set on a hit.
   unsigned test(const WideNode& n, float tmin, float tmax, float* t_entry) const {
@@ -68,7 +100,7 @@ struct WideSlab {
 #else
 struct WideSlab {  // the portable build: one slot at a time
   int near[3], far[3];
-  const RobustRay& r;
+  RobustRay r;
 
   explicit WideSlab(const RobustRay& ray) : r(ray) {
     for (int a = 0; a < 3; ++a) {
@@ -228,37 +260,56 @@ struct Counting {
   }
 };
 
-// One ray's walk from the root, in one loop whose state (ray constants, current entry, stack,
-// closest hit) lives in locals the compiler keeps in registers: the ray's constants are made
-// here, not passed in, because a RobustRay built by the caller is read back from memory (single
-// primary rays were 6-7% slower that way, AMD EPYC). Children hit by the ray are entered
-// nearest first; the others wait on the stack, farther ones lower, and are skipped once behind
-// the closest hit. `best` is the closest hit so far (t = tmax when none); returns the closest
-// hit, or for an any-hit query whether there is one. The hit goes back by value, in registers:
+// Where a walk starts, and where its ray's constants come from. From the root: the constants
+// are made in the walk, not passed in, because a RobustRay built by the caller is read back from
+// memory (single primary rays were 6-7% slower that way, AMD EPYC).
+struct FromRoot {
+  static constexpr bool kRootTested = false;
+  static WideSlab slab(const Ray& ray, const Aabb& scene, float magnitude) {
+    return WideSlab(RobustRay(ray, scene, magnitude));
+  }
+  static WatertightRay watertight(const Ray& ray) { return WatertightRay(ray); }
+};
+
+#if defined(__AVX__) && defined(__FMA__)
+// From the children that ray `lane` of a group enters, its constants read from the group's.
+struct FromGroup {
+  static constexpr bool kRootTested = true;
+  const GroupRays& g;
+  int lane;
+  WideSlab slab(const Ray&, const Aabb&, float) const { return WideSlab(g, lane); }
+  WatertightRay watertight(const Ray& ray) const {
+    const int kz = 2 - 2 * static_cast<int>(g.x_largest >> lane & 1u) -
+                   static_cast<int>(g.y_largest >> lane & 1u);  // as max_axis
+    return WatertightRay(ray.org, kz, (g.kz_negative >> lane & 1u) != 0, g.s[0][lane], g.s[1][lane],
+                         g.s[2][lane]);
+  }
+  unsigned entered() const { return g.entered[lane]; }
+  const float* t_entry() const { return &g.t_entry[0][lane]; }  // child i's at [i * kStride]
+  static constexpr std::ptrdiff_t kStride = kGroupLanes;
+};
+#endif
+
+// One ray's walk, in one loop whose state (ray constants, current entry, stack, closest hit)
+// lives in locals the compiler keeps in registers. Children hit by the ray are entered nearest
+// first; the others wait on the stack, farther ones lower, and are skipped once behind the
+// closest hit. `best` is the closest hit so far (t = tmax when none); returns the closest hit,
+// or for an any-hit query whether there is one. The hit goes back by value, in registers:
 // through a Hit& the caller reloaded t and prim as one 8-byte word written by two 4-byte
 // stores, which the CPU cannot forward, a stall on every ray (single rays that miss the mesh
 // took 17 ns, 3 of them there). kInside: the ray starts inside the scene's box (see walk).
-// kRootTested: `root` holds the ray's test of the root, and the walk starts from its children.
+// `start`: FromRoot or FromGroup.
 template <bool AnyHit>
 using WalkResult = std::conditional_t<AnyHit, bool, Hit>;
 
-// The root's slab test made for a group of rays at once (wide_bvh_group.cpp), with the float
-// operations of WideSlab: the children this ray enters, and its entry parameters t[i * stride].
-struct RootTest {
-  unsigned mask;
-  const float* t;
-  std::ptrdiff_t stride;
-};
-
-template <bool AnyHit, bool kInside, bool kRootTested, class Counts>
+template <bool AnyHit, bool kInside, class Start, class Counts>
 WalkResult<AnyHit> walk_from(const WideNode* nodes, const TriangleBlock* blocks, const Ray& ray,
                              const Aabb& scene, float magnitude, Hit best, Counts counts,
-                             const RootTest* root) {
-  const RobustRay r(ray, scene, magnitude);
-  const WideSlab slab(r);
+                             const Start& start) {
+  const WideSlab slab = start.slab(ray, scene, magnitude);
   std::optional<WatertightRay> w;  // the triangle test's constants (three divisions)
   std::optional<WatertightBlock> wb;
-  if constexpr (kInside) wb.emplace(w.emplace(ray));
+  if constexpr (kInside) wb.emplace(w.emplace(start.watertight(ray)));
   const float tmin = ray.tmin;  // best.t: the far end of every test (tmax for an any-hit query)
   TraversalStack<Entry, kStackSize> stack;
   Entry current{0, 0, 0};  // the root
@@ -296,14 +347,14 @@ WalkResult<AnyHit> walk_from(const WideNode* nodes, const TriangleBlock* blocks,
     }
     current = nearest;
   };
-  if constexpr (kRootTested) {
-    if (root->mask == 0) {
+  if constexpr (Start::kRootTested) {
+    if (start.entered() == 0) {
       if constexpr (AnyHit)
         return false;
       else
         return best;
     }
-    descend(nodes[0], root->mask, root->t, root->stride);
+    descend(nodes[0], start.entered(), start.t_entry(), Start::kStride);
   }
   for (;;) {
     if (current.count == 0) {  // a wide node: enter the nearest hit child, push the others
@@ -316,7 +367,7 @@ WalkResult<AnyHit> walk_from(const WideNode* nodes, const TriangleBlock* blocks,
         continue;
       }
     } else {  // a leaf: its blocks of eight triangles
-      if (!kInside && !wb) wb.emplace(w.emplace(ray));
+      if (!kInside && !wb) wb.emplace(w.emplace(start.watertight(ray)));
       counts.leaf(blocks + current.child, current.count, best);
       const bool found =
           test_leaf<AnyHit, !kInside>(blocks + current.child, current.count, *w, *wb, tmin, best);
@@ -347,23 +398,24 @@ WalkResult<AnyHit> walk_from(const WideNode* nodes, const TriangleBlock* blocks,
 template <bool AnyHit, class Counts = NoCounts>
 WalkResult<AnyHit> walk(const WideNode* nodes, const TriangleBlock* blocks, const Ray& ray,
                         const Aabb& scene, float magnitude, Hit best, Counts counts = {}) {
-  return starts_inside(ray, scene)
-             ? walk_from<AnyHit, true, false>(nodes, blocks, ray, scene, magnitude, best, counts,
-                                              nullptr)
-             : walk_from<AnyHit, false, false>(nodes, blocks, ray, scene, magnitude, best, counts,
-                                               nullptr);
+  return starts_inside(ray, scene) ? walk_from<AnyHit, true>(nodes, blocks, ray, scene, magnitude,
+                                                             best, counts, FromRoot{})
+                                   : walk_from<AnyHit, false>(nodes, blocks, ray, scene, magnitude,
+                                                              best, counts, FromRoot{});
 }
 
-// The same walk from the ray's test of the root, made already (a group's, wide_bvh_group.cpp).
+#if defined(__AVX__) && defined(__FMA__)
+// The same walk for ray `start.lane` of a group (wide_bvh_group.cpp).
 template <bool AnyHit>
-WalkResult<AnyHit> walk_below_root(const WideNode* nodes, const TriangleBlock* blocks,
-                                   const Ray& ray, const Aabb& scene, float magnitude, Hit best,
-                                   const RootTest& root) {
-  return starts_inside(ray, scene)
-             ? walk_from<AnyHit, true, true>(nodes, blocks, ray, scene, magnitude, best, NoCounts{},
-                                             &root)
-             : walk_from<AnyHit, false, true>(nodes, blocks, ray, scene, magnitude, best,
-                                              NoCounts{}, &root);
+WalkResult<AnyHit> walk_in_group(const WideNode* nodes, const TriangleBlock* blocks, const Ray& ray,
+                                 const Aabb& scene, float magnitude, Hit best,
+                                 const FromGroup& start) {
+  return (start.g.inside >> start.lane & 1u) != 0
+             ? walk_from<AnyHit, true>(nodes, blocks, ray, scene, magnitude, best, NoCounts{},
+                                       start)
+             : walk_from<AnyHit, false>(nodes, blocks, ray, scene, magnitude, best, NoCounts{},
+                                        start);
 }
+#endif
 
 }  // namespace splitray::wide_bvh
