@@ -1,7 +1,8 @@
 // SIMD code equals the scalar code it repeats, bit for bit: the wrappers of core/simd.hpp lane
 // by lane against the scalar operations (NaN, signed zeros, infinities and denormals included),
-// the 8-wide watertight test (core/triangle_simd.hpp) against the scalar test, and the AVX2
-// 7-plane clip of the wide kd walk (accel/kd/kd_wide_clip.hpp) against its portable twin.
+// the 8-wide watertight test (core/triangle_simd.hpp) against the scalar test, its constants
+// made for eight rays at once against one ray's, and the AVX2 7-plane clip of the wide kd walk
+// (accel/kd/kd_wide_clip.hpp) against its portable twin.
 // Builds without the instructions skip the comparisons they cannot make.
 #include "splitray/core/simd.hpp"
 
@@ -198,6 +199,45 @@ TEST(Simd, Watertight8EqualsTheScalarTest) {
   }
   EXPECT_GT(hits, 1000);
   EXPECT_GT(handed_back, 100);  // the edge and ill-conditioned lanes were exercised
+#else
+  GTEST_SKIP() << "built without AVX";
+#endif
+}
+
+// WatertightLanes (the BVH's groups' constants of eight rays) against WatertightRay ray by ray:
+// directions with ties between the largest components, signed zeros, tiny and huge components.
+TEST(Simd, WatertightLanesEqualWatertightRay) {
+#if defined(__AVX__)
+  Pcg32 rng(31);
+  const float special[] = {0.0f, -0.0f, 1.0f, -1.0f, 0x1p-30f, -0x1p20f, 0.5f, -0.5f};
+  for (int round = 0; round < 2000; ++round) {
+    alignas(32) float d[3][8];
+    Vec3 org[8];
+    for (int l = 0; l < 8; ++l) {
+      for (int a = 0; a < 3; ++a) {
+        d[a][l] = round % 3 == 0 ? special[rng.next_u32() % 8] : 2.0f * rng.next_float() - 1.0f;
+        org[l][a] = rng.next_float();
+      }
+      if (round % 5 == 1) d[1][l] = d[0][l];                                   // |x| = |y|
+      if (round % 5 == 2) d[2][l] = -d[1][l];                                  // |y| = |z|
+      if (d[0][l] == 0 && d[1][l] == 0 && d[2][l] == 0) d[l % 3][l] = -0.25f;  // a direction
+    }
+    const simd::Float8 dir[3] = {simd::Float8::load(d[0]), simd::Float8::load(d[1]),
+                                 simd::Float8::load(d[2])};
+    const WatertightLanes<simd::Float8> lanes(dir);
+    for (int l = 0; l < 8; ++l) {
+      Ray ray;
+      ray.org = org[l];
+      ray.dir = {d[0][l], d[1][l], d[2][l]};
+      const WatertightRay expected(ray), got = lanes.ray(l, org[l]);
+      ASSERT_EQ(got.kx, expected.kx) << "round " << round << " lane " << l;
+      ASSERT_EQ(got.ky, expected.ky) << "round " << round << " lane " << l;
+      ASSERT_EQ(got.kz, expected.kz) << "round " << round << " lane " << l;
+      EXPECT_TRUE(same_bits(got.sx, expected.sx) && same_bits(got.sy, expected.sy) &&
+                  same_bits(got.sz, expected.sz))
+          << "round " << round << " lane " << l;
+    }
+  }
 #else
   GTEST_SKIP() << "built without AVX";
 #endif

@@ -31,9 +31,9 @@ struct WatertightRay {
   float sx, sy, sz;
 
   // Made without branches on the direction (max_axis, the swap): a diffuse ray's direction is
-  // random, and such branches are mispredicted about half the time. The BVH's groups of rays
-  // make the same float operations for eight rays at once (group_rays in
-  // accel/bvh/wide_bvh_group.cpp): a change here must be made there too.
+  // random, and such branches are mispredicted about half the time. WatertightLanes
+  // (triangle_simd.hpp) makes the same float operations for several rays at once: a change here
+  // must be made there too.
   explicit WatertightRay(const Ray& ray) : org(ray.org) {
     const float d[3] = {ray.dir.x, ray.dir.y, ray.dir.z};  // indexed without branches
     const int largest = max_axis(abs(ray.dir));

@@ -87,6 +87,42 @@ class Watertight8 {
   simd::Float8 sx_, sy_, sz_;
 };
 
+// WatertightRay's constants of several rays, a lane each (F: simd::Float8 or Float16), made
+// for all of them at once (the BVH's groups and packets make them before the walk): lane by
+// lane WatertightRay's float operations, so ray(lane, origin) equals WatertightRay(that ray)
+// for a finite direction.
+template <class F>
+struct WatertightLanes {
+  alignas(64) float s[3][F::kLanes];           // sx, sy, sz
+  unsigned x_largest, y_largest, kz_negative;  // a bit per lane: the largest axis, its sign
+
+  WatertightLanes() = default;  // unset
+  explicit WatertightLanes(const F (&dir)[3]) {
+    // max_axis lane by lane: x when |x| >= |y| and |x| >= |z|, else y when |y| >= |z|.
+    const F ax = abs(dir[0]), ay = abs(dir[1]), az = abs(dir[2]);
+    const auto x = (ax >= ay) & (ax >= az), y = (ax < ay) & (ay >= az);
+    const auto pick = [&](F if_x, F if_y, F if_z) {
+      return select(x, if_x, select(y, if_y, if_z));
+    };
+    const F d_kz = pick(dir[0], dir[1], dir[2]);
+    const F d_next = pick(dir[1], dir[2], dir[0]), d_after = pick(dir[2], dir[0], dir[1]);
+    const auto negative = d_kz < F::zero();  // then kx and ky swap, as in WatertightRay
+    (select(negative, d_after, d_next) / d_kz).storeu(s[0]);
+    (select(negative, d_next, d_after) / d_kz).storeu(s[1]);
+    (F::broadcast(1.0f) / d_kz).storeu(s[2]);
+    x_largest = x.bits();
+    y_largest = y.bits();
+    kz_negative = negative.bits();
+  }
+
+  WatertightRay ray(int lane, const Vec3& origin) const {
+    const int kz = 2 - 2 * static_cast<int>(x_largest >> lane & 1u) -
+                   static_cast<int>(y_largest >> lane & 1u);  // as max_axis
+    return WatertightRay(origin, kz, (kz_negative >> lane & 1u) != 0, s[0][lane], s[1][lane],
+                         s[2][lane]);
+  }
+};
+
 #if defined(__AVX512F__)
 // One triangle against sixteen rays, a ray per lane (Wald, Slusallek, Benthin & Wagner 2001;
 // Embree's packet triangle tests), for packets whose rays share the watertight test's axis

@@ -68,24 +68,7 @@ void group_rays(const WideNode& root, const Ray* rays, int n, const Aabb& scene,
   }
   g.inside = inside.bits();
 
-  // WatertightRay: the largest axis of the direction (max_axis), the next two in order (swapped
-  // where the direction is negative along it) and the three quotients.
-  const F8 ax = abs(dir[0]), ay = abs(dir[1]), az = abs(dir[2]);
-  const simd::Mask8 x_ge_y = ax >= ay;
-  const simd::Mask8 x_largest = x_ge_y & (ax >= az);
-  const simd::Mask8 y_largest{_mm256_andnot_ps(x_ge_y.m, (ay >= az).m)};
-  const auto pick = [&](const F8& if_x, const F8& if_y, const F8& if_z) {
-    return select(x_largest, if_x, select(y_largest, if_y, if_z));
-  };
-  const F8 d_kz = pick(dir[0], dir[1], dir[2]);
-  const F8 d_next = pick(dir[1], dir[2], dir[0]), d_after = pick(dir[2], dir[0], dir[1]);
-  const simd::Mask8 negative = d_kz < F8::zero();
-  (select(negative, d_after, d_next) / d_kz).store(g.s[0]);
-  (select(negative, d_next, d_after) / d_kz).store(g.s[1]);
-  (F8::broadcast(1.0f) / d_kz).store(g.s[2]);
-  g.x_largest = x_largest.bits();
-  g.y_largest = y_largest.bits();
-  g.kz_negative = negative.bits();
+  g.watertight = WatertightLanes<F8>(dir);
 
   // WideSlab::test of the root, a child at a time for all rays; each ray's sign bit picks its
   // planes.

@@ -37,12 +37,11 @@ struct GroupRays {
   alignas(32) float inv[3][kGroupLanes];               // WideSlab's inv
   alignas(32) float org_near[3][kGroupLanes];          // WideSlab's org_near (times inv)
   alignas(32) float org_far[3][kGroupLanes];           // WideSlab's org_far (times inv)
-  alignas(32) float s[3][kGroupLanes];                 // WatertightRay's sx, sy, sz
   alignas(32) float t_entry[kWideWidth][kGroupLanes];  // the root's children: entry parameters
   alignas(32) std::uint32_t entered[kGroupLanes];      // and the children each ray enters
-  // A bit per lane: the direction's sign along each axis (RobustRay's negative); WatertightRay's
-  // largest axis (x, else y, else z) and the sign along it; starts_inside.
-  unsigned negative[3], x_largest, y_largest, kz_negative, inside;
+  WatertightLanes<simd::Float8> watertight;
+  // A bit per lane: the direction's sign along each axis (RobustRay's negative); starts_inside.
+  unsigned negative[3], inside;
 };
 #endif
 
@@ -278,12 +277,7 @@ struct FromGroup {
   const GroupRays& g;
   int lane;
   WideSlab slab(const Ray&, const Aabb&, float) const { return WideSlab(g, lane); }
-  WatertightRay watertight(const Ray& ray) const {
-    const int kz = 2 - 2 * static_cast<int>(g.x_largest >> lane & 1u) -
-                   static_cast<int>(g.y_largest >> lane & 1u);  // as max_axis
-    return WatertightRay(ray.org, kz, (g.kz_negative >> lane & 1u) != 0, g.s[0][lane], g.s[1][lane],
-                         g.s[2][lane]);
-  }
+  WatertightRay watertight(const Ray& ray) const { return g.watertight.ray(lane, ray.org); }
   unsigned entered() const { return g.entered[lane]; }
   const float* t_entry() const { return &g.t_entry[0][lane]; }  // child i's at [i * kStride]
   static constexpr std::ptrdiff_t kStride = kGroupLanes;
