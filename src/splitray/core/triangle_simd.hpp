@@ -88,9 +88,9 @@ class Watertight8 {
 };
 
 // WatertightRay's constants of several rays, a lane each (F: simd::Float8 or Float16), made
-// for all of them at once (the BVH's groups and packets make them before the walk): lane by
-// lane WatertightRay's float operations, so ray(lane, origin) equals WatertightRay(that ray)
-// for a finite direction.
+// for all of them at once (the BVH's groups make them before their rays' walks): lane by lane
+// WatertightRay's float operations, so ray(lane, origin) equals WatertightRay(that ray) for a
+// finite direction.
 template <class F>
 struct WatertightLanes {
   alignas(64) float s[3][F::kLanes];           // sx, sy, sz

@@ -4,8 +4,11 @@
 // for the rays of a packet. The root's test heads every ray's chain of dependent steps; made for
 // eight independent rays together, the tests overlap, and each walk starts with the fetch of its
 // first child: diffuse rays in batched calls 1.02-1.34 times as fast (docs/experiments.md,
-// traversal round 9). The same test in 512-bit lanes slowed the 256-bit walks around it on the
-// Intel core it was measured on (every diffuse ray 15-25% slower), so the lanes are 256 bits.
+// traversal round 9). The rays' set-up is made in the same pass (GroupRays: the slab test's and
+// the triangle test's constants, four divisions a ray alone), and each walk loads its lane's:
+// another 1.03-1.12 times as fast (round 10). The same test in 512-bit lanes slowed the 256-bit
+// walks around it on the Intel core it was measured on (every diffuse ray 15-25% slower), so
+// the lanes are 256 bits.
 #include "splitray/accel/bvh/wide_bvh.hpp"
 
 #if defined(__AVX__) && defined(__FMA__)
