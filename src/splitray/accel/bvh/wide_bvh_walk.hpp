@@ -48,8 +48,9 @@ struct GroupRays {
 // The per-ray constants of the wide slab test: plane rows by direction sign, and the origins
 // times the inverse direction and the inverse broadcast once. A plane's parameter is
 // plane * inv - org * inv in one rounding (fmsub): the extra error of rounding org * inv is below
-// 2^-24 |org inv|, 1/64 of the padding (robust_ray.hpp), so the test stays conservative; a zero
-// direction component gives NaN, which keeps the slot (max and min keep their second operand).
+// 2^-24 |org inv|, 1/64 of the padding (robust_ray.hpp), so the test stays conservative. No
+// parameter is NaN: the inverse is finite (RobustRay makes a zero component tiny) and an empty
+// slot's planes are +-inf; max and min keep their second operand should one be.
 #if defined(__AVX512F__) || (defined(__AVX__) && defined(__FMA__))
 struct WideSlab {
   // One lane per child of a node (the packets load a node's rows with it too).
