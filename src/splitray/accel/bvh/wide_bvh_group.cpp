@@ -1,10 +1,10 @@
 // Groups of rays that make no packet (wide_bvh_packet.cpp), in the batched calls: the root's
 // slab test made for eight rays at once, a ray per 256-bit lane, then each ray walks alone from
-// the children it entered (wide_bvh_walk.hpp), as Embree's rtcIntersect8 tests the root once
-// for the rays of a packet. The root's test heads every ray's chain of dependent steps; made for
-// eight independent rays together, the tests overlap, and each walk starts with the fetch of its
-// first child: diffuse rays in batched calls 1.02-1.34 times as fast (docs/experiments.md,
-// traversal round 9). The rays' set-up is made in the same pass (GroupRays: the slab test's and
+// the children it entered (wide_bvh_walk.hpp). The root's test heads every ray's chain of
+// dependent steps; made for eight independent rays together, the tests overlap, and each walk
+// starts with the fetch of its first child: diffuse rays in batched calls 1.02-1.34 times as
+// fast (docs/experiments.md, traversal round 9; Embree's rtcIntersect8 walks each such ray from
+// the root, round 11). The rays' set-up is made in the same pass (GroupRays: the slab test's and
 // the triangle test's constants, four divisions a ray alone), and each walk loads its lane's:
 // another 1.03-1.12 times as fast (round 10). The same test in 512-bit lanes slowed the 256-bit
 // walks around it on the Intel core it was measured on (every diffuse ray 15-25% slower), so
