@@ -52,9 +52,8 @@ bool all_as_given(std::span<const Ray> rays) {
   const __m512 origin_limit = _mm512_set1_ps(kMaxRayOrigin);
   const __m512 largest = _mm512_set1_ps(0x1p2f), least = _mm512_set1_ps(0x1p-2f);
   const __m512i tmax_lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 7, 7, 8, 9, 10, 11, 12, 13, 15, 15);
-  const float* const floats = &rays.data()->org.x;
   for (; i + 2 <= rays.size(); i += 2) {
-    const __m512 v = _mm512_loadu_ps(floats + 8 * i);
+    const __m512 v = _mm512_loadu_ps(&rays[i].org.x);  // rays i and i + 1
     const __m512 magnitude = _mm512_abs_ps(v);
     const __mmask16 origin = _mm512_mask_cmp_ps_mask(kOrigin, magnitude, origin_limit, _CMP_LE_OQ);
     const __mmask16 bounded = _mm512_mask_cmp_ps_mask(kDirection, magnitude, largest, _CMP_LE_OQ);

@@ -12,9 +12,10 @@ namespace {
 
 using Tree = flann::KDTreeSingleIndex<flann::L2_Simple<float>>;
 
-// FLANN's matrices take non-const pointers but only read the points and queries.
+// FLANN's matrices take non-const pointers but only read the points and queries. (No member
+// access through data() when the span is empty: it may be null.)
 flann::Matrix<float> as_matrix(std::span<const Vec3> v) {
-  return {const_cast<float*>(&v.data()->x), v.size(), 3, sizeof(Vec3)};
+  return {v.empty() ? nullptr : const_cast<float*>(&v.front().x), v.size(), 3, sizeof(Vec3)};
 }
 
 class FlannIndex final : public NeighborIndex {
