@@ -40,6 +40,20 @@ def median_seconds(call, runs):
     return statistics.median(times), result
 
 
+def interleaved_seconds(calls, runs):
+    """Median seconds and result of each named call: a warm-up call each, then `runs` rounds in
+    which every call is timed in turn, so that all see the same state of a noisy machine (as
+    `splitray bench bvh` does)."""
+    results = {name: call() for name, call in calls.items()}
+    times = {name: [] for name in calls}
+    for _ in range(runs):
+        for name, call in calls.items():
+            start = time.perf_counter()
+            results[name] = call()
+            times[name].append(time.perf_counter() - start)
+    return {name: (statistics.median(times[name]), results[name]) for name in calls}
+
+
 def ray_sets(vertices, triangles, n, rng):
     """Rays from around the mesh towards it, and diffuse rays leaving the surface."""
     lo, hi = vertices.min(0), vertices.max(0)
@@ -77,8 +91,10 @@ def bench_rays(path, rays_per_set, runs, rng):
     for kind, rays in ray_sets(vertices, triangles, rays_per_set, rng).items():
         row = {"mesh": project_path(path), "triangles": len(triangles),
                "rays": kind, "count": len(rays)}
-        for name, scene in scenes.items():
-            seconds, hits = median_seconds(lambda: scene.cast_rays(rays, nthreads=-1), runs)
+        calls = {name: (lambda scene=scene: scene.cast_rays(rays, nthreads=-1)) for name, scene in scenes.items()}
+        measured = interleaved_seconds(calls, runs)
+        for name in scenes:
+            seconds, hits = measured[name]
             row[f"{name}_mrays_s"] = len(rays) / seconds / 1e6
             row[f"{name}_hits"] = int((hits["primitive_ids"] != 2**32 - 1).sum())
         if o3d_scene is not None:
