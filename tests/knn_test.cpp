@@ -171,6 +171,8 @@ TEST(KnnTest, NanoflannAndFlannEqualBruteForceInDistances) {
   const std::vector<float> radii = {0.0f, 0.01f * set.diagonal};
   std::vector<KnnResult> knn;
   std::vector<RadiusResult> within;
+  knn.reserve(ks.size());
+  within.reserve(radii.size());
   for (int k : ks) knn.push_back(brute_force_knn(set.points, set.queries, k));
   for (float r : radii) within.push_back(brute_force_radius(set.points, set.queries, r));
   for (const std::string name : {"nanoflann", "flann"}) {
