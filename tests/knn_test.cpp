@@ -216,18 +216,6 @@ TEST(KnnTest, TheFactoryBuildsEveryNameAndTheyAgree) {
   }
 }
 
-// No queries, no answers, from every index.
-TEST(KnnTest, EveryIndexAnswersAnEmptyQuerySet) {
-  const PointSet& set = horse_points();
-  for (const std::string& name : neighbor_index_names()) {
-    const auto index = make_neighbor_index(set.points, {.builder = name});
-    const KnnResult knn = index->knn({}, 8);
-    EXPECT_EQ(knn.queries, 0u) << name;
-    EXPECT_TRUE(knn.indices.empty()) << name;
-    EXPECT_EQ(index->radius({}, 0.01f * set.diagonal).queries(), 0u) << name;
-  }
-}
-
 TEST(KnnTest, ResultsAndTreesDoNotDependOnTheThreadCount) {
   const PointSet& set = horse_points();
   for (const std::string& builder : kOurBuilders) {
